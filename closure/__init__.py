@@ -1,0 +1,32 @@
+"""closure — the shared engine of linkwright.
+
+Multi-loop spatial mechanisms with R, P, C, H, U and S joints modelled by 4x4
+transforms (seed 000): loop closure by damped Gauss–Newton, continuation
+sweeps, velocities, accelerations, transfer functions (analogs) and point paths.
+
+Main names
+----------
+Mechanism            links, joints, inputs; ``solve``, ``sweep``, analogs
+Pose                 a solved batch of poses with residual, iterations, condition
+frame_from_points    a joint frame from three points (seed 000's rule)
+transform, inverse, exp_se3, log_se3, rot_x, rot_y, rot_z, rotation, skew
+MechanismError       bad input (a ValueError)
+ClosureError         the loops could not be closed (carries the figures)
+"""
+from .errors import ClosureError, MechanismError
+from .frames import (ad, adjoint, euler_zxz, exp_se3, exp_so3, frame_from_points, hat, inverse,
+                     log_se3, log_so3, rot_x, rot_y, rot_z, rotation, skew, transform,
+                     translation, vee)
+from .joints import JOINT_KINDS, Joint
+from .kinematics import analogs, joint_analogs, point_analogs
+from .mechanism import Mechanism
+from .pose import Pose
+from .solver import SolverOptions, solve, sweep
+
+__all__ = [
+    "Mechanism", "Pose", "Joint", "JOINT_KINDS", "SolverOptions", "MechanismError",
+    "ClosureError", "solve", "sweep", "analogs", "joint_analogs", "point_analogs",
+    "frame_from_points", "transform", "translation", "inverse", "exp_se3", "log_se3",
+    "exp_so3", "log_so3", "rot_x", "rot_y", "rot_z", "rotation", "skew", "hat", "vee",
+    "adjoint", "ad", "euler_zxz",
+]

@@ -1,0 +1,296 @@
+"""Rigid-body frames: rotations, 4x4 homogeneous transforms, twists and SE(3) exp/log.
+
+Conventions (shared/DESIGN.md §2): a transform is ``[[R, p], [0, 1]]`` acting on
+column vectors ``(x, y, z, 1)``; every function broadcasts over leading axes, so
+one pose is ``(4, 4)`` and a batch is ``(..., 4, 4)``.  A twist is the 6-vector
+``(v, ω)``: linear part first, as in seed 003's six-vectors, where ``v`` is the
+velocity of the body point at the origin of the frame the twist is written in.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .errors import MechanismError
+
+__all__ = [
+    "skew", "unskew", "hat", "vee", "rotation", "rot_x", "rot_y", "rot_z",
+    "transform", "translation", "inverse", "adjoint", "ad", "exp_so3", "log_so3",
+    "exp_se3", "log_se3", "frame_from_points", "euler_zxz", "check_transform",
+]
+
+_EYE3 = np.eye(3)
+
+
+def skew(p: np.ndarray) -> np.ndarray:
+    """Skew-symmetric matrix ``[p]×`` of a 3-vector, shape ``(..., 3)`` → ``(..., 3, 3)``."""
+    p = np.asarray(p, dtype=float)
+    z = np.zeros(p.shape[:-1])
+    x, y, w = p[..., 0], p[..., 1], p[..., 2]
+    return np.stack([np.stack([z, -w, y], -1), np.stack([w, z, -x], -1),
+                     np.stack([-y, x, z], -1)], -2)
+
+
+def unskew(S: np.ndarray) -> np.ndarray:
+    """The 3-vector of a skew-symmetric matrix (its antisymmetric part), ``(..., 3, 3)`` → ``(..., 3)``."""
+    S = np.asarray(S, dtype=float)
+    return 0.5 * np.stack([S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0],
+                           S[..., 1, 0] - S[..., 0, 1]], -1)
+
+
+def hat(xi: np.ndarray) -> np.ndarray:
+    """se(3) matrix of a twist ``(v, ω)``: ``(..., 6)`` → ``(..., 4, 4)``."""
+    xi = np.asarray(xi, dtype=float)
+    out = np.zeros(xi.shape[:-1] + (4, 4))
+    out[..., :3, :3] = skew(xi[..., 3:])
+    out[..., :3, 3] = xi[..., :3]
+    return out
+
+
+def vee(X: np.ndarray) -> np.ndarray:
+    """Twist ``(v, ω)`` of an se(3) matrix: ``(..., 4, 4)`` → ``(..., 6)``."""
+    X = np.asarray(X, dtype=float)
+    return np.concatenate([X[..., :3, 3], unskew(X[..., :3, :3])], -1)
+
+
+def exp_so3(w: np.ndarray) -> np.ndarray:
+    """Rotation matrix of a rotation vector (axis × angle, rad): ``(..., 3)`` → ``(..., 3, 3)``.
+
+    Uses series expansions for small angles, so it is accurate down to zero.
+    """
+    w = np.asarray(w, dtype=float)
+    th2 = np.sum(w * w, -1)
+    th = np.sqrt(th2)
+    small = th2 < 1e-8
+    ths = np.where(small, 1.0, th)
+    a = np.where(small, 1 - th2 / 6 + th2 ** 2 / 120, np.sin(ths) / ths)
+    b = np.where(small, 0.5 - th2 / 24 + th2 ** 2 / 720, (1 - np.cos(ths)) / ths ** 2)
+    K = skew(w)
+    return _EYE3 + a[..., None, None] * K + b[..., None, None] * (K @ K)
+
+
+def log_so3(R: np.ndarray) -> np.ndarray:
+    """Rotation vector of a rotation matrix, angle in [0, π]: ``(..., 3, 3)`` → ``(..., 3)``.
+
+    Accurate near 0 (series) and near π (from the symmetric part).
+    """
+    R = np.asarray(R, dtype=float)
+    v = unskew(R)                      # sin(th) * axis
+    s = np.linalg.norm(v, axis=-1)
+    th = np.arctan2(s, (np.trace(R, axis1=-2, axis2=-1) - 1) / 2)
+    small = th < 1e-5
+    scale = np.where(small, 1 + th ** 2 / 6 + 7 * th ** 4 / 360, th / np.where(small, 1, np.sin(th)))
+    out = v * scale[..., None]
+    near_pi = th > np.pi - 1e-3
+    if np.any(near_pi):
+        # (R + Rᵀ)/2 = cos θ I + (1 - cos θ) a aᵀ: take the largest column of a aᵀ
+        c = np.cos(th[near_pi])[..., None, None]
+        M = ((R[near_pi] + np.swapaxes(R[near_pi], -1, -2)) / 2 - c * _EYE3) / (1 - c)
+        k = np.argmax(np.diagonal(M, axis1=-2, axis2=-1), -1)
+        a = np.take_along_axis(M, k[..., None, None], -1)[..., 0]
+        a = a / np.linalg.norm(a, axis=-1, keepdims=True)
+        sgn = np.sign(np.sum(a * v[near_pi], -1))
+        sgn = np.where(sgn == 0, 1.0, sgn)
+        out[near_pi] = a * (sgn * th[near_pi])[..., None]
+    return out
+
+
+def _left_jacobian_terms(th2):
+    small = th2 < 1e-8
+    th = np.sqrt(np.where(small, 1.0, th2))
+    b = np.where(small, 0.5 - th2 / 24, (1 - np.cos(th)) / th ** 2)
+    c = np.where(small, 1 / 6 - th2 / 120, (th - np.sin(th)) / th ** 3)
+    return b, c
+
+
+def exp_se3(xi: np.ndarray) -> np.ndarray:
+    """Transform ``exp(ξ^)`` of a twist ``(v, ω)``: ``(..., 6)`` → ``(..., 4, 4)``."""
+    xi = np.asarray(xi, dtype=float)
+    w, v = xi[..., 3:], xi[..., :3]
+    K = skew(w)
+    b, c = _left_jacobian_terms(np.sum(w * w, -1))
+    V = _EYE3 + b[..., None, None] * K + c[..., None, None] * (K @ K)
+    out = np.zeros(xi.shape[:-1] + (4, 4))
+    out[..., :3, :3] = exp_so3(w)
+    out[..., :3, 3] = (V @ v[..., None])[..., 0]
+    out[..., 3, 3] = 1.0
+    return out
+
+
+def log_se3(T: np.ndarray) -> np.ndarray:
+    """Twist ``(v, ω)`` with ``exp_se3(ξ) = T``, rotation angle in [0, π]: ``(..., 4, 4)`` → ``(..., 6)``."""
+    T = np.asarray(T, dtype=float)
+    w = log_so3(T[..., :3, :3])
+    th2 = np.sum(w * w, -1)
+    small = th2 < 1e-8
+    th = np.sqrt(np.where(small, 1.0, th2))
+    # V^{-1} = I - K/2 + e K², e = (1 - th sin th / (2 (1 - cos th))) / th²
+    e = np.where(small, 1 / 12 + th2 / 720,
+                 (1 - th * np.sin(th) / (2 * (1 - np.cos(th)))) / th ** 2)
+    K = skew(w)
+    Vinv = _EYE3 - 0.5 * K + e[..., None, None] * (K @ K)
+    v = (Vinv @ T[..., :3, 3:4])[..., 0]
+    return np.concatenate([v, w], -1)
+
+
+def rotation(axis: np.ndarray, angle) -> np.ndarray:
+    """Rotation by ``angle`` (rad) about a unit ``axis``: broadcasts to ``(..., 3, 3)``."""
+    axis = np.asarray(axis, dtype=float)
+    n = np.linalg.norm(axis, axis=-1, keepdims=True)
+    if np.any(n < 1e-12):
+        raise MechanismError("rotation: axis has zero length; expected a non-zero 3-vector")
+    return exp_so3(axis / n * np.asarray(angle, dtype=float)[..., None])
+
+
+def _axis_rot(i, j, angle):
+    a = np.asarray(angle, dtype=float)
+    c, s = np.cos(a), np.sin(a)
+    R = np.zeros(a.shape + (3, 3))
+    k = 3 - i - j
+    R[..., k, k] = 1.0
+    R[..., i, i] = c
+    R[..., j, j] = c
+    R[..., i, j] = -s
+    R[..., j, i] = s
+    return R
+
+
+def rot_x(angle) -> np.ndarray:
+    """Rotation about x by ``angle`` (rad), shape ``angle.shape + (3, 3)``."""
+    return _axis_rot(1, 2, angle)
+
+
+def rot_y(angle) -> np.ndarray:
+    """Rotation about y by ``angle`` (rad), shape ``angle.shape + (3, 3)``."""
+    return _axis_rot(2, 0, angle)
+
+
+def rot_z(angle) -> np.ndarray:
+    """Rotation about z by ``angle`` (rad), shape ``angle.shape + (3, 3)``."""
+    return _axis_rot(0, 1, angle)
+
+
+def transform(R: np.ndarray | None = None, p: np.ndarray | None = None) -> np.ndarray:
+    """4x4 transform ``[[R, p], [0, 1]]`` from a rotation ``(..., 3, 3)`` and a translation ``(..., 3)``."""
+    R = _EYE3 if R is None else np.asarray(R, dtype=float)
+    p = np.zeros(3) if p is None else np.asarray(p, dtype=float)
+    shape = np.broadcast_shapes(R.shape[:-2], p.shape[:-1])
+    out = np.zeros(shape + (4, 4))
+    out[..., :3, :3] = R
+    out[..., :3, 3] = p
+    out[..., 3, 3] = 1.0
+    return out
+
+
+def translation(p: np.ndarray) -> np.ndarray:
+    """Pure translation by ``p`` ``(..., 3)`` → ``(..., 4, 4)``."""
+    return transform(None, p)
+
+
+def inverse(T: np.ndarray) -> np.ndarray:
+    """Inverse of rigid transforms ``(..., 4, 4)`` (uses Rᵀ, not a general inverse)."""
+    T = np.asarray(T, dtype=float)
+    Rt = np.swapaxes(T[..., :3, :3], -1, -2)
+    return transform(Rt, -(Rt @ T[..., :3, 3:4])[..., 0])
+
+
+def adjoint(T: np.ndarray) -> np.ndarray:
+    """6x6 adjoint of ``T`` for twists ``(v, ω)``: ``Ad_T ξ = vee(T ξ^ T⁻¹)``."""
+    T = np.asarray(T, dtype=float)
+    R, p = T[..., :3, :3], T[..., :3, 3]
+    out = np.zeros(T.shape[:-2] + (6, 6))
+    out[..., :3, :3] = R
+    out[..., 3:, 3:] = R
+    out[..., :3, 3:] = skew(p) @ R
+    return out
+
+
+def ad(xi: np.ndarray) -> np.ndarray:
+    """6x6 matrix of the Lie bracket ``ad_ξ η = [ξ, η]`` for twists ``(v, ω)``."""
+    xi = np.asarray(xi, dtype=float)
+    W, V = skew(xi[..., 3:]), skew(xi[..., :3])
+    out = np.zeros(xi.shape[:-1] + (6, 6))
+    out[..., :3, :3] = W
+    out[..., 3:, 3:] = W
+    out[..., :3, 3:] = V
+    return out
+
+
+def check_transform(T, name: str = "transform", tol: float = 1e-9) -> np.ndarray:
+    """Return ``T`` as a float array after checking it is a rigid 4x4 transform.
+
+    Raises
+    ------
+    MechanismError
+        If the shape is not ``(..., 4, 4)``, the entries are not finite, the
+        last row is not ``(0, 0, 0, 1)`` or the rotation block is not a proper
+        rotation to ``tol``.  The message names ``name``.
+    """
+    T = np.asarray(T, dtype=float)
+    if T.shape[-2:] != (4, 4):
+        raise MechanismError(f"{name}: expected a 4x4 transform, got shape {T.shape}")
+    if not np.all(np.isfinite(T)):
+        raise MechanismError(f"{name}: contains non-finite entries")
+    if np.max(np.abs(T[..., 3, :] - [0, 0, 0, 1])) > tol:
+        raise MechanismError(f"{name}: last row must be (0, 0, 0, 1)")
+    R = T[..., :3, :3]
+    err = np.max(np.abs(R @ np.swapaxes(R, -1, -2) - _EYE3))
+    if err > tol or np.any(np.linalg.det(R) < 0):
+        raise MechanismError(f"{name}: rotation block is not a proper rotation "
+                             f"(|R Rᵀ - I| = {err:.2e}, tolerance {tol:.0e})")
+    return T
+
+
+def frame_from_points(origin, x_point, z_point) -> np.ndarray:
+    """Joint frame from three points (seed 000's rule).
+
+    The origin is ``origin``; the Z axis points from ``origin`` to ``z_point``;
+    the X axis points towards ``x_point``, made perpendicular to Z.
+
+    Parameters
+    ----------
+    origin, x_point, z_point : array_like, shape (..., 3)
+        Points in the ground frame (length units).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4, 4)
+
+    Raises
+    ------
+    MechanismError
+        If ``z_point`` coincides with ``origin`` or the three points are
+        collinear (relative tolerance 1e-9 of the points' spread).
+    """
+    o, xp, zp = (np.asarray(a, dtype=float) for a in (origin, x_point, z_point))
+    if o.shape[-1:] != (3,) or xp.shape[-1:] != (3,) or zp.shape[-1:] != (3,):
+        raise MechanismError("frame_from_points: origin, x_point and z_point must be 3-vectors")
+    z = zp - o
+    x = xp - o
+    zn = np.linalg.norm(z, axis=-1, keepdims=True)
+    scale = np.maximum(zn, np.linalg.norm(x, axis=-1, keepdims=True))
+    if np.any(zn <= 1e-12 * np.maximum(scale, 1e-300)) or np.any(zn == 0):
+        raise MechanismError("frame_from_points: z_point coincides with origin; "
+                             "expected a distinct point on the Z axis")
+    z = z / zn
+    x = x - np.sum(x * z, -1, keepdims=True) * z
+    xn = np.linalg.norm(x, axis=-1, keepdims=True)
+    if np.any(xn <= 1e-9 * scale):
+        raise MechanismError("frame_from_points: the three points are collinear "
+                             "(or x_point coincides with origin); expected x_point off the Z axis")
+    x = x / xn
+    y = np.cross(z, x)
+    return transform(np.stack([x, y, z], -1), o)
+
+
+def euler_zxz(R: np.ndarray) -> np.ndarray:
+    """Z–X–Z (Z–N–Z) Euler angles ``(ψ, θ, φ)`` of rotations ``R = Rz(ψ) Rx(θ) Rz(φ)``.
+
+    Output only (the solver never uses them).  At the singular ``θ = 0`` or ``π``
+    only ``ψ ± φ`` is defined; then ``φ = 0`` is returned.  Shape ``(..., 3)``.
+    """
+    R = np.asarray(R, dtype=float)
+    th = np.arctan2(np.hypot(R[..., 0, 2], R[..., 1, 2]), R[..., 2, 2])
+    sing = np.hypot(R[..., 0, 2], R[..., 1, 2]) < 1e-12
+    psi = np.where(sing, np.arctan2(R[..., 1, 0], R[..., 0, 0]), np.arctan2(R[..., 0, 2], -R[..., 1, 2]))
+    phi = np.where(sing, 0.0, np.arctan2(R[..., 2, 0], R[..., 2, 1]))
+    return np.stack([psi, th, phi], -1)

@@ -1,0 +1,444 @@
+"""Mechanisms: links, joints, inputs, the spanning tree and the independent loops.
+
+A :class:`Mechanism` is described at one assembly pose: every link's frame
+coincides with the ground frame there, so a point or joint frame "on a link" is
+given by its ground coordinates at that pose (seed 000's constant link
+matrices follow: A_ij = A_0i⁻¹ A_0j).  The links form a graph whose spanning
+tree from the ground fixes every link's pose from the joint coordinates; each
+joint outside the tree closes one independent loop (so the loops are found from
+the graph, any number, branching links included).
+"""
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import MechanismError
+from .frames import adjoint, check_transform, inverse, log_se3, transform
+from .joints import JOINT_KINDS, Joint
+
+__all__ = ["Mechanism"]
+
+
+@dataclass(frozen=True)
+class _Tree:
+    """Compiled structure (built lazily from the user's description)."""
+    links: tuple            # link names, ground first
+    parent_joint: tuple     # per link: index of the tree joint to its parent (-1 for ground)
+    forward: tuple          # per link: True if the parent is the joint's link_a
+    order: tuple            # links in BFS order (parents before children)
+    chords: tuple           # indices of the loop-closing joints
+    path_sign: np.ndarray   # (nlinks, nv): link twist = Σ sign · column · rate
+    loop_coef: np.ndarray   # (nloops, nv): loop velocity constraint coefficients
+    v_offset: tuple         # per joint: first velocity coordinate
+    q_offset: tuple         # per joint: first stored scalar coordinate
+    s_index: tuple          # per joint: index among spherical joints (-1 if not S)
+    nv: int
+    nq: int
+    ns: int
+    length_cols: np.ndarray  # velocity coordinates that are lengths (P, C slide)
+    scale: float            # characteristic length of the mechanism
+
+
+class Mechanism:
+    """A multi-loop spatial mechanism.
+
+    Parameters
+    ----------
+    links : iterable of str, optional
+        Link names besides the ground (more can be added by :meth:`add_link`).
+    ground : str
+        Name of the fixed link.
+
+    Examples
+    --------
+    A planar four-bar (all axes along z):
+
+    >>> import numpy as np
+    >>> from closure import Mechanism, transform
+    >>> m = Mechanism(["crank", "coupler", "rocker"])
+    >>> pts = {"A": (0, 0, 0), "B": (0, 1, 0), "C": (3, 2, 0), "D": (3, 0, 0)}
+    >>> for name, a, b, p in [("A", "ground", "crank", "A"), ("B", "crank", "coupler", "B"),
+    ...                       ("C", "coupler", "rocker", "C"), ("D", "rocker", "ground", "D")]:
+    ...     _ = m.add_joint(name, "R", a, b, at=transform(None, pts[p]))
+    >>> m.add_input("A")
+    >>> pose = m.solve(0.3)
+    >>> bool(pose.residual.max() < 1e-12)
+    True
+    """
+
+    def __init__(self, links=(), ground: str = "ground"):
+        self.ground = str(ground)
+        self.links: list[str] = [self.ground]
+        self.joints: list[Joint] = []
+        self.inputs: list[tuple[int, int]] = []
+        self._q0: list[np.ndarray] = []
+        self._rot0: list[np.ndarray | None] = []
+        self._tree: _Tree | None = None
+        self._mobility: int | None = None
+        for name in links:
+            self.add_link(name)
+
+    # ------------------------------------------------------------ description
+    def add_link(self, name: str) -> None:
+        """Add a link (its frame is the ground frame at the assembly pose)."""
+        if not isinstance(name, str) or not name:
+            raise MechanismError(f"add_link: name must be a non-empty string, got {name!r}")
+        if name in self.links:
+            raise MechanismError(f"add_link: link {name!r} already exists")
+        self.links.append(name)
+        self._tree = None
+
+    def add_joint(self, name: str, kind: str, link_a: str, link_b: str, at, *,
+                  pitch: float | None = None) -> Joint:
+        """Add a joint between two links.
+
+        Parameters
+        ----------
+        name : str
+            Unique joint name.
+        kind : {"R", "P", "C", "H", "U", "S"}
+        link_a, link_b : str
+            The joined links (declared before).
+        at : array_like (4, 4) or pair of them
+            The joint frame in the ground frame at the assembly pose (then the
+            joint's coordinates are zero there), or a pair ``(frame_a,
+            frame_b)`` of the frames on link *a* and link *b* (then the
+            coordinates are read from ``frame_a⁻¹ frame_b``).  Frame rules are
+            those of :mod:`closure.joints` (Z along the axis; U: Z along link
+            *a*'s pin, X along link *b*'s pin).
+        pitch : float
+            Helical joints: slide per radian of rotation (length / rad).
+
+        Returns
+        -------
+        Joint
+        """
+        if not isinstance(name, str) or not name:
+            raise MechanismError(f"add_joint: name must be a non-empty string, got {name!r}")
+        if any(j.name == name for j in self.joints):
+            raise MechanismError(f"add_joint: joint {name!r} already exists")
+        if kind not in JOINT_KINDS:
+            raise MechanismError(f"joint {name!r}: kind {kind!r} unknown; expected one of "
+                                 f"{', '.join(JOINT_KINDS)}")
+        for field_, link in (("link_a", link_a), ("link_b", link_b)):
+            if link not in self.links:
+                raise MechanismError(f"joint {name!r}: {field_} {link!r} is not a link of this "
+                                     f"mechanism; known links: {', '.join(self.links)}")
+        if link_a == link_b:
+            raise MechanismError(f"joint {name!r}: link_a and link_b are both {link_a!r}")
+        if kind == "H":
+            if pitch is None or not np.isfinite(pitch):
+                raise MechanismError(f"joint {name!r}: a helical joint needs a finite pitch "
+                                     "(length per radian)")
+        elif pitch is not None:
+            raise MechanismError(f"joint {name!r}: pitch is only for helical (H) joints")
+        at_arr = np.asarray(at, dtype=float)
+        if at_arr.shape == (2, 4, 4):
+            fa = check_transform(at_arr[0], f"joint {name!r}: at[0]")
+            fb = check_transform(at_arr[1], f"joint {name!r}: at[1]")
+        else:
+            fa = check_transform(at_arr, f"joint {name!r}: at")
+            fb = None
+        joint = Joint(name, kind, link_a, link_b, fa, fa, float(pitch or 0.0), len(self.joints))
+        if fb is None:
+            q0 = np.zeros(joint.nq)
+            rot0 = np.eye(3) if kind == "S" else None
+            joint.frame_b = fa @ joint.matrix(q0[None], None if rot0 is None else rot0[None])[0]
+        else:
+            q0, rot0 = joint.coordinates_of(inverse(fa) @ fb)
+            joint.frame_b = fb
+        self.joints.append(joint)
+        self._q0.append(q0)
+        self._rot0.append(rot0)
+        self._tree = None
+        return joint
+
+    def add_input(self, joint: str, index: int = 0) -> None:
+        """Declare coordinate ``index`` of ``joint`` an input (driven) coordinate."""
+        j = self.joint(joint)
+        if j.kind == "S":
+            raise MechanismError(f"add_input: joint {joint!r} is spherical; its rotation is not a "
+                                 "joint parameter that can be driven (use R, P, C, H or U)")
+        if not (0 <= int(index) < j.nq):
+            raise MechanismError(f"add_input: joint {joint!r} ({j.kind}) has coordinates "
+                                 f"{j.coordinate_names}; index {index} is out of range")
+        if (j.index, int(index)) in self.inputs:
+            raise MechanismError(f"add_input: {joint}[{index}] is already an input")
+        self.inputs.append((j.index, int(index)))
+        self._tree = None
+
+    def joint(self, name: str) -> Joint:
+        """The joint called ``name``."""
+        for j in self.joints:
+            if j.name == name:
+                return j
+        raise MechanismError(f"no joint named {name!r}; joints: "
+                             f"{', '.join(j.name for j in self.joints)}")
+
+    # ------------------------------------------------------------ compilation
+    @property
+    def tree(self) -> _Tree:
+        """The compiled spanning tree and loops (rebuilt after any change)."""
+        if self._tree is None:
+            self._tree = self._compile()
+            self._check_mobility()
+        return self._tree
+
+    def _compile(self) -> _Tree:
+        if not self.joints:
+            raise MechanismError("mechanism has no joints")
+        nl = len(self.links)
+        lidx = {n: i for i, n in enumerate(self.links)}
+        adj: list[list[int]] = [[] for _ in range(nl)]
+        for j in self.joints:
+            adj[lidx[j.link_a]].append(j.index)
+            adj[lidx[j.link_b]].append(j.index)
+        parent = [-1] * nl
+        forward = [True] * nl
+        seen = [False] * nl
+        seen[0] = True
+        order = [0]
+        tree_joints = set()
+        queue = deque([0])
+        while queue:
+            li = queue.popleft()
+            for ji in adj[li]:
+                j = self.joints[ji]
+                other = lidx[j.link_b] if lidx[j.link_a] == li else lidx[j.link_a]
+                if not seen[other]:
+                    seen[other] = True
+                    parent[other] = ji
+                    forward[other] = lidx[j.link_a] == li
+                    tree_joints.add(ji)
+                    order.append(other)
+                    queue.append(other)
+        lost = [self.links[i] for i in range(nl) if not seen[i]]
+        if lost:
+            raise MechanismError(f"links not connected to the ground {self.ground!r}: "
+                                 f"{', '.join(lost)}")
+        chords = tuple(j.index for j in self.joints if j.index not in tree_joints)
+        v_off, q_off, s_idx = [], [], []
+        nv = nq = ns = 0
+        length_cols = []
+        for j in self.joints:
+            v_off.append(nv)
+            q_off.append(nq)
+            s_idx.append(ns if j.kind == "S" else -1)
+            if j.kind == "P":
+                length_cols.append(nv)
+            if j.kind == "C":
+                length_cols.append(nv + 1)
+            nv += j.nv
+            nq += j.nq
+            ns += j.kind == "S"
+        sign = np.zeros((nl, nv))
+        for li in order[1:]:
+            ji = parent[li]
+            j = self.joints[ji]
+            p = lidx[j.link_a] if forward[li] else lidx[j.link_b]
+            sign[li] = sign[p]
+            sign[li, v_off[ji]:v_off[ji] + j.nv] = 1.0 if forward[li] else -1.0
+        loop = np.zeros((len(chords), nv))
+        for k, ci in enumerate(chords):
+            j = self.joints[ci]
+            loop[k] = sign[lidx[j.link_a]] - sign[lidx[j.link_b]]
+            loop[k, v_off[ci]:v_off[ci] + j.nv] += 1.0
+        pts = np.array([j.frame_a[:3, 3] for j in self.joints])
+        scale = float(np.max(np.linalg.norm(pts - pts.mean(0), axis=1)))
+        if scale == 0.0:
+            scale = 1.0
+        return _Tree(tuple(self.links), tuple(parent), tuple(forward), tuple(order), chords,
+                     sign, loop, tuple(v_off), tuple(q_off), tuple(s_idx), nv, nq, ns,
+                     np.array(length_cols, dtype=int), scale)
+
+    def _check_mobility(self) -> None:
+        t = self._tree
+        state = self.assembly()
+        J = self._scaled_jacobian(self.kinematic_state(state))[0]
+        if J.shape[0]:
+            s = np.linalg.svd(J, compute_uv=False)
+            rank = int(np.sum(s > 1e-8 * max(s[0], 1e-300)))
+        else:
+            rank = 0
+        self._mobility = t.nv - rank
+        if len(self.inputs) > self._mobility:
+            self._tree = None
+            raise MechanismError(f"{len(self.inputs)} inputs declared but the mechanism's mobility "
+                                 f"at the assembly pose is {self._mobility}")
+
+    @property
+    def mobility(self) -> int:
+        """Degrees of freedom at the assembly pose (joint coordinates minus the rank of the
+        loop Jacobian), idle freedoms such as the spin of an S–S rod included."""
+        _ = self.tree
+        return self._mobility
+
+    @property
+    def n_loops(self) -> int:
+        """Number of independent loops."""
+        return len(self.tree.chords)
+
+    # ------------------------------------------------------------ state helpers
+    def assembly(self):
+        """The assembly pose as a one-element state ``(q (1, nq), rot (1, ns, 3, 3))``."""
+        t = self._tree if self._tree is not None else self._compile()
+        q = np.concatenate([q for q in self._q0]) if t.nq else np.zeros(0)
+        rot = np.array([r for r in self._rot0 if r is not None]).reshape(t.ns, 3, 3)
+        return q[None, :], rot[None]
+
+    def input_columns(self) -> np.ndarray:
+        """Velocity-coordinate indices of the inputs, in declaration order."""
+        t = self.tree
+        return np.array([t.v_offset[ji] + k for ji, k in self.inputs], dtype=int)
+
+    def input_q_columns(self) -> np.ndarray:
+        """Stored-coordinate indices of the inputs, in declaration order."""
+        t = self.tree
+        return np.array([t.q_offset[ji] + k for ji, k in self.inputs], dtype=int)
+
+    def unknown_columns(self) -> np.ndarray:
+        """Velocity-coordinate indices solved for (all but the inputs)."""
+        return np.setdiff1d(np.arange(self.tree.nv), self.input_columns())
+
+    def input_labels(self) -> list[str]:
+        """Labels of the inputs (``joint`` or ``joint.coordinate``)."""
+        out = []
+        for ji, k in self.inputs:
+            j = self.joints[ji]
+            out.append(j.name if j.nq == 1 else f"{j.name}.{j.coordinate_names[k]}")
+        return out
+
+    def coordinate_labels(self) -> list[str]:
+        """Column labels of the reported joint coordinates (``joint`` or ``joint.name``)."""
+        out = []
+        for j in self.joints:
+            names = j.coordinate_names
+            out += [j.name] if len(names) == 1 else [f"{j.name}.{n}" for n in names]
+        return out
+
+    def velocity_labels(self) -> list[str]:
+        """Labels of the velocity coordinates (S joints: ``joint.wx, .wy, .wz``, in frame a)."""
+        out = []
+        for j in self.joints:
+            names = ["wx", "wy", "wz"] if j.kind == "S" else j.coordinate_names
+            out += [j.name] if len(names) == 1 else [f"{j.name}.{n}" for n in names]
+        return out
+
+    # ------------------------------------------------------------ kinematics core
+    def kinematic_state(self, state, twists: bool = True):
+        """Link poses, joint frames and world-frame unit twists for a batch of states.
+
+        Parameters
+        ----------
+        state : tuple (q (B, nq), rot (B, ns, 3, 3))
+
+        Returns
+        -------
+        dict with ``link`` (B, nlinks, 4, 4), ``frame_a`` (B, njoints, 4, 4) (the
+        world pose of each joint's *a* frame), ``A`` per joint (B, 4, 4),
+        ``S`` (B, nv, 6) world twists of the velocity coordinates, ``Sframe``
+        (per column: the column's carrying link index and the deps), and the
+        loop residual ``r`` (B, nloops, 6).
+        """
+        t = self.tree if self._tree is not None else self._compile()
+        q, rot = state
+        B = q.shape[0]
+        A = []
+        for j in self.joints:
+            qj = q[:, t.q_offset[j.index]:t.q_offset[j.index] + j.nq]
+            rj = rot[:, t.s_index[j.index]] if j.kind == "S" else None
+            A.append(j.matrix(qj, rj))
+        lidx = {n: i for i, n in enumerate(t.links)}
+        link = np.empty((B, len(t.links), 4, 4))
+        link[:, 0] = np.eye(4)
+        for li in t.order[1:]:
+            j = self.joints[t.parent_joint[li]]
+            if t.forward[li]:
+                rel = j.frame_a @ A[j.index] @ inverse(j.frame_b)
+                link[:, li] = link[:, lidx[j.link_a]] @ rel
+            else:
+                rel = j.frame_b @ inverse(A[j.index]) @ inverse(j.frame_a)
+                link[:, li] = link[:, lidx[j.link_b]] @ rel
+        frame_a = np.empty((B, len(self.joints), 4, 4))
+        for j in self.joints:
+            frame_a[:, j.index] = link[:, lidx[j.link_a]] @ j.frame_a
+        r = np.empty((B, len(t.chords), 6))
+        for k, ci in enumerate(t.chords):
+            j = self.joints[ci]
+            G = frame_a[:, ci] @ A[ci] @ inverse(j.frame_b) @ inverse(link[:, lidx[j.link_b]])
+            r[:, k] = log_se3(G)
+        out = {"link": link, "frame_a": frame_a, "A": A, "r": r}
+        if not twists:
+            return out
+        S = np.empty((B, t.nv, 6))
+        carrier = np.empty(t.nv, dtype=int)
+        deps: list[tuple] = []
+        for j in self.joints:
+            fa = frame_a[:, j.index]
+            for k, (prefix, xi, dep) in enumerate(j.columns(q[:, t.q_offset[j.index]:])):
+                c = t.v_offset[j.index] + k
+                F = fa if prefix is None else fa @ prefix
+                S[:, c] = adjoint(F) @ xi
+                carrier[c] = lidx[j.link_a]
+                deps.append(tuple(t.v_offset[j.index] + d for d in dep))
+        out.update(S=S, carrier=carrier, deps=deps)
+        return out
+
+    def jacobian(self, ks) -> np.ndarray:
+        """Loop-closure Jacobian ``(B, 6·nloops, nv)`` in world twists ``(v, ω)``."""
+        t = self.tree
+        J = np.einsum("lc,bcs->blsc", t.loop_coef, ks["S"])
+        return J.reshape(J.shape[0], -1, t.nv)
+
+    def _scaled_jacobian(self, ks) -> np.ndarray:
+        """Dimensionless Jacobian: translation rows / scale, length columns / scale."""
+        J = self.jacobian(ks).copy()
+        t = self.tree
+        L = t.scale
+        J = J.reshape(J.shape[0], -1, 6, t.nv)
+        J[:, :, :3, :] /= L
+        J = J.reshape(J.shape[0], -1, t.nv)
+        J[:, :, t.length_cols] *= L
+        return J
+
+    def _scaled_residual(self, ks) -> np.ndarray:
+        r = ks["r"].copy()
+        r[..., :3] /= self.tree.scale
+        return r.reshape(r.shape[0], -1)
+
+    # ------------------------------------------------------------ solving
+    def solve(self, inputs, guess=None, **kw):
+        """Solve the loops for one input value or a batch: see :func:`closure.solve`."""
+        from .solver import solve
+        return solve(self, inputs, guess, **kw)
+
+    def sweep(self, values, guess=None, **kw):
+        """Continuation along the inputs into a table: see :func:`closure.sweep`."""
+        from .solver import sweep
+        return sweep(self, values, guess, **kw)
+
+    def analogs(self, pose, second: bool = True):
+        """First- and second-order transfer functions: see :func:`closure.analogs`."""
+        from .kinematics import analogs
+        return analogs(self, pose, second)
+
+    def velocities(self, pose, rates) -> np.ndarray:
+        """Coordinate rates ``(B, nv)`` for input rates ``(B, ni)`` or ``(ni,)``."""
+        first, _ = self.analogs(pose, second=False)
+        return np.einsum("bci,bi->bc", first, np.broadcast_to(rates, first.shape[:1] +
+                                                              first.shape[2:]))
+
+    def accelerations(self, pose, rates, accels) -> np.ndarray:
+        """Coordinate accelerations ``(B, nv)`` for input rates and accelerations ``(B, ni)``."""
+        first, sec = self.analogs(pose)
+        shp = first.shape[:1] + first.shape[2:]
+        xd, xdd = np.broadcast_to(rates, shp), np.broadcast_to(accels, shp)
+        return np.einsum("bci,bi->bc", first, xdd) + np.einsum("bcij,bi,bj->bc", sec, xd, xd)
+
+    def __repr__(self) -> str:
+        kinds = "".join(j.kind for j in self.joints)
+        return (f"Mechanism({len(self.links)} links, joints {kinds}, "
+                f"{len(self.inputs)} inputs)")

@@ -1,0 +1,131 @@
+"""Solved poses of a mechanism: joint coordinates with their error figures."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from .errors import MechanismError
+
+__all__ = ["Pose"]
+
+#: status codes of a solved pose
+STATUS = {0: "ok", 1: "near-singular", 2: "no convergence", 3: "no assembly"}
+
+
+@dataclass
+class Pose:
+    """A batch of solved poses (or the assembly pose).
+
+    Attributes
+    ----------
+    mechanism : Mechanism
+    inputs : numpy.ndarray, shape (B, n_inputs)
+    q : numpy.ndarray, shape (B, nq)
+        Scalar joint coordinates (rad or length), spherical joints excluded.
+    rot : numpy.ndarray, shape (B, ns, 3, 3)
+        Relative rotations of the spherical joints.
+    residual : numpy.ndarray, shape (B,)
+        Largest loop-closure error: rotation (rad) or translation divided by
+        the mechanism's length scale (the largest joint distance from the
+        joints' centroid).
+    iterations : numpy.ndarray, shape (B,)
+    condition : numpy.ndarray, shape (B,)
+        Condition number of the (dimensionless) Jacobian of the unknowns,
+        over its expected rank (idle freedoms excluded).
+    status : numpy.ndarray of int, shape (B,)
+        0 ok, 1 near-singular (condition above the limit), 2 no convergence,
+        3 no assembly (converged to a loop transform that is not the identity).
+    scalar : bool
+        True when a single input value was given (accessors then drop the batch axis).
+    """
+
+    mechanism: object
+    inputs: np.ndarray
+    q: np.ndarray
+    rot: np.ndarray
+    residual: np.ndarray
+    iterations: np.ndarray
+    condition: np.ndarray
+    status: np.ndarray
+    scalar: bool = False
+
+    @property
+    def state(self):
+        """``(q, rot)``: the engine's state arrays."""
+        return self.q, self.rot
+
+    @property
+    def ok(self) -> np.ndarray:
+        """Boolean mask of poses that closed to tolerance (status 0 or 1)."""
+        return self.status <= 1
+
+    @property
+    def status_text(self) -> np.ndarray:
+        """Status as words."""
+        return np.array([STATUS[int(s)] for s in self.status])
+
+    def _out(self, a):
+        return a[0] if self.scalar else a
+
+    def __len__(self) -> int:
+        return self.q.shape[0]
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        """Coordinates of joint ``name``: ``(B,)`` for one-coordinate joints, else
+        ``(B, k)`` (S: Z–X–Z Euler angles ψ, θ, φ in rad)."""
+        m = self.mechanism
+        j = m.joint(name)
+        t = m.tree
+        if j.kind == "S":
+            v = j.values(None, self.rot[:, t.s_index[j.index]])
+        else:
+            v = self.q[:, t.q_offset[j.index]:t.q_offset[j.index] + j.nq]
+        return self._out(v[:, 0] if v.shape[1] == 1 else v)
+
+    def rotation(self, name: str) -> np.ndarray:
+        """Relative rotation ``(B, 3, 3)`` of spherical joint ``name``."""
+        m = self.mechanism
+        j = m.joint(name)
+        if j.kind != "S":
+            raise MechanismError(f"rotation: joint {name!r} is {j.kind}, not spherical")
+        return self._out(self.rot[:, m.tree.s_index[j.index]])
+
+    def values(self) -> np.ndarray:
+        """All reported coordinates ``(B, n)`` in the order of ``coordinate_labels()``."""
+        m = self.mechanism
+        cols = []
+        for j in m.joints:
+            v = self[j.name] if not self.scalar else np.asarray(self[j.name])[None]
+            cols.append(v.reshape(len(self), -1))
+        return np.concatenate(cols, 1)
+
+    def link_frame(self, link: str) -> np.ndarray:
+        """World pose ``(B, 4, 4)`` of ``link`` (its frame is the ground frame at assembly)."""
+        m = self.mechanism
+        if link not in m.links:
+            raise MechanismError(f"no link named {link!r}; links: {', '.join(m.links)}")
+        ks = m.kinematic_state(self.state, twists=False)
+        return self._out(ks["link"][:, m.links.index(link)])
+
+    def point(self, link: str, xyz) -> np.ndarray:
+        """World position ``(B, 3)`` of a point of ``link`` given by its ground coordinates
+        at the assembly pose."""
+        T = np.asarray(self.link_frame(link))
+        p = np.asarray(xyz, dtype=float)
+        if p.shape != (3,):
+            raise MechanismError(f"point: xyz must be a 3-vector, got shape {p.shape}")
+        return T[..., :3, :3] @ p + T[..., :3, 3]
+
+    def table(self) -> pd.DataFrame:
+        """One row per pose: inputs, joint coordinates, residual, condition, iterations, status."""
+        m = self.mechanism
+        df = pd.DataFrame(self.inputs, columns=[f"input:{lab}" for lab in m.input_labels()])
+        vals = pd.DataFrame(self.values(), columns=m.coordinate_labels())
+        df = pd.concat([df, vals], axis=1)
+        df["residual"] = self.residual
+        df["condition"] = self.condition
+        df["iterations"] = self.iterations
+        df["status"] = self.status_text
+        return df

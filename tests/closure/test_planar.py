@@ -4,7 +4,7 @@ import pytest
 
 from closure import ClosureError, Mechanism, exp_se3, translation
 
-from .mechanisms import fourbar, fourbar_rates, freudenstein
+from linkwright.references import fourbar, fourbar_rates, freudenstein
 
 GEOM = dict(a=1.0, b=3.0, c=2.5, d=3.2)   # Grashof crank-rocker
 

@@ -4,7 +4,7 @@ import pytest
 
 from closure import Mechanism, frame_from_points, point_analogs, rot_x, transform, translation
 
-from .mechanisms import (bennett_theta2, bricard_even, dh_loop, rssr, rssr_output)
+from linkwright.references import (bennett_theta2, bricard_even, dh_loop, rssr, rssr_output)
 
 
 def wrap(x):

@@ -1,4 +1,4 @@
-"""Reference mechanisms and their closed forms, shared by the closure tests."""
+"""Reference mechanisms with closed-form solutions, shared by the tests and the benchmarks."""
 import numpy as np
 
 from closure import Mechanism, rot_x, rot_z, transform, translation

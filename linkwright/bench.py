@@ -96,7 +96,60 @@ def bench_closure(quick: bool = False) -> list[str]:
     ]
 
 
-BENCHES = {"closure": bench_closure}
+def bench_stiffness(quick: bool = False) -> list[str]:
+    """Vectorised hexapod K over many poses vs a Python loop over formula (2)."""
+    from closure import exp_so3
+    from stiffness import Hexapod
+
+    n = 20_000 if quick else 200_000
+    n_loop = 2_000
+    rng = np.random.default_rng(0)
+    a = np.radians([0, 100, 120, 220, 240, 340])
+    b = np.radians([40, 80, 160, 200, 280, 320])
+    hx = Hexapod(np.c_[0.8 * np.cos(a), 0.8 * np.sin(a), np.zeros(6)],
+                 np.c_[0.4 * np.cos(b), 0.4 * np.sin(b), np.zeros(6)],
+                 rng.uniform(5e6, 2e7, 6))
+    T = np.zeros((n, 4, 4))
+    T[:, :3, :3] = exp_so3(rng.normal(scale=0.15, size=(n, 3)))
+    T[:, :3, 3] = rng.normal(scale=0.05, size=(n, 3)) + [0, 0, 0.7]
+    T[:, 3, 3] = 1
+    t_vec, (K, _) = _timeit(lambda: hx.stiffness_batch(T, cond=False))
+    t_cond, _ = _timeit(lambda: hx.stiffness_batch(T, cond=True), repeat=1)
+
+    def loop(Ts):
+        out = []
+        for Ti in Ts:                                   # formula (2), element by element
+            Kl = np.zeros((6, 6))
+            for i in range(6):
+                P = Ti[:3, :3] @ hx.platform[i] + Ti[:3, 3]
+                u = (P - hx.base[i]) / np.linalg.norm(P - hx.base[i])
+                Rv = np.r_[u, np.cross(P, u)]
+                for j in range(6):
+                    for l in range(6):
+                        Kl[j, l] += hx.k[i] * Rv[j] * Rv[l]
+            out.append(Kl)
+        return np.array(out)
+
+    t0 = time.perf_counter()
+    Kl = loop(T[:n_loop])
+    t_loop = (time.perf_counter() - t0) / n_loop * n
+    diff = np.abs(Kl - K[:n_loop]).max() / np.abs(Kl).max()
+    return [
+        "## stiffness: hexapod K over many poses",
+        "",
+        "| method | poses | time (s) | poses / s |",
+        "|---|---|---|---|",
+        f"| vectorised `Hexapod.stiffness_batch` (K) | {n} | {t_vec:.3f} | {n / t_vec:,.0f} |",
+        f"| vectorised, K and cond(P) by batched SVD | {n} | {t_cond:.3f} | {n / t_cond:,.0f} |",
+        f"| Python loop over formula (2) (timed on {n_loop}, scaled) | {n} | {t_loop:.1f} | "
+        f"{n / t_loop:,.0f} |",
+        "",
+        f"speed ratio: **{t_loop / t_vec:.0f}×**; largest relative difference {diff:.1e}",
+        "",
+    ]
+
+
+BENCHES = {"closure": bench_closure, "stiffness": bench_stiffness}
 
 
 def run(modules=None, quick: bool = False) -> int:

@@ -117,3 +117,11 @@ def test_structure_errors_are_clear():
     m4.add_joint("s", "S", "ground", "s", at=np.eye(4))
     with pytest.raises(MechanismError, match="spherical"):
         m4.add_input("s")
+
+
+def test_more_inputs_than_mobility_is_an_error():
+    from linkwright.references import fourbar
+    m, _ = fourbar(1.0, 3.0, 2.5, 3.2, t2_0=0.3)
+    m.add_input("B")
+    with pytest.raises(MechanismError, match="2 inputs declared but the mechanism's mobility"):
+        m.solve([0.1, 0.2])

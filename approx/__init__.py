@@ -1,0 +1,1 @@
+"""approx — piecewise-linear approximation of acceleration analogs (seed 004)."""

@@ -1,0 +1,133 @@
+"""Stiffness reports: Markdown and CSV, written atomically."""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from .matrices import (blocks, rotational_compliance_eigenvalues, screw_eigenvalues,
+                       translational_eigenvalues)
+
+__all__ = ["report", "write_atomic"]
+
+
+def write_atomic(path, text: str) -> None:
+    """Write ``text`` to ``path`` through a temporary file and ``os.replace``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _save_figure(fig, path) -> None:
+    """Save a matplotlib figure atomically (temporary file, then ``os.replace``)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=path.suffix)
+    os.close(fd)
+    try:
+        fig.savefig(tmp)
+        os.replace(tmp, path)
+    except BaseException:
+        if os.path.exists(tmp):
+            os.unlink(tmp)
+        raise
+
+
+def _matrix_md(M, fmt="{: .4e}"):
+    rows = ["| " + " | ".join(fmt.format(v) for v in row) + " |" for row in M]
+    head = "| " + " | ".join(["δx", "δy", "δz", "θx", "θy", "θz"][:M.shape[1]]) + " |"
+    return "\n".join([head, "|" + "---|" * M.shape[1]] + rows)
+
+
+def report(hexapod, pose, *, frame=None, wrench=None, positions=None, rotations=None,
+           path=None, title: str = "Stiffness report") -> str:
+    """A Markdown stiffness report (and CSV files beside it when ``path`` is given).
+
+    Contents: the pose, the reference frame, K and its blocks with units, the
+    indices (translational eigenvalues N/m, rotational compliance eigenvalues
+    rad/(N·m), frame-invariant screw eigenvalues N, cond(P)), leg forces and
+    the deflection under ``wrench`` (about the base origin), and the map over
+    ``positions`` × ``rotations`` when given.
+
+    Returns
+    -------
+    str : the Markdown text.
+    """
+    T = hexapod._pose(pose)
+    res = hexapod.stiffness(T, frame=frame)
+    K = res.K
+    Kn, Kc, Kk = blocks(K)
+    lines = [f"# {title}", "",
+             "Conventions: wrench W = (f, m) in N, N·m; displacement Δ = (δ, θ) in m, rad "
+             "(seed 003); K is the unloaded (congruence) stiffness P Kθ Pᵀ.", "",
+             "## Pose and frame", "",
+             f"- platform origin in the base frame: {np.array2string(T[:3, 3], precision=6)} m",
+             f"- platform rotation:\n\n```\n{np.array2string(T[:3, :3], precision=6)}\n```",
+             f"- reference point (origin of K's frame), base coordinates: "
+             f"{np.array2string(np.asarray(res.reference), precision=6)} m",
+             f"- frame axes R (r' = R (r − p)):\n\n```\n{np.array2string(res.R, precision=6)}\n```",
+             f"- cond(P) (moment rows / platform radius {hexapod.radius:.4g} m): {res.cond_P:.4g}",
+             "", "## Stiffness matrix K", "",
+             "Blocks: translational K_n (N/m), coupling K_c (N/rad), torsional K_k (N·m/rad).", "",
+             _matrix_md(K), "",
+             "## Indices", "",
+             "| index | values | unit |", "|---|---|---|",
+             f"| eigenvalues of K_n | {np.array2string(translational_eigenvalues(K), precision=5)} "
+             "| N/m |",
+             f"| eigenvalues of the rotational compliance | "
+             f"{np.array2string(rotational_compliance_eigenvalues(K), precision=5)} | rad/(N·m) |",
+             f"| screw eigenvalues K t = λ Δ t (frame-invariant) | "
+             f"{np.array2string(screw_eigenvalues(K).real, precision=5)} | N |",
+             f"| ‖K_c‖ (coupling) | {np.linalg.norm(Kc):.5g} | N/rad |", ""]
+    csv = {"stiffness.csv": pd.DataFrame(K, columns=["dx", "dy", "dz", "tx", "ty", "tz"],
+                                         index=["fx", "fy", "fz", "mx", "my", "mz"])}
+    if wrench is not None:
+        W = np.asarray(wrench, dtype=float)
+        tau = hexapod.leg_forces(T, W)
+        d = hexapod.deflection(T, W)
+        lines += ["## Load case", "",
+                  f"External wrench about the base origin W = {np.array2string(W, precision=5)} "
+                  "(N, N·m).", "",
+                  "| leg | force (N, tension +) |", "|---|---|"]
+        lines += [f"| {i + 1} | {v:.5g} |" for i, v in enumerate(tau)]
+        lines += ["", f"Deflection Δ = C W about the base origin: δ = "
+                  f"{np.array2string(d[:3], precision=5)} m, θ = "
+                  f"{np.array2string(d[3:], precision=5)} rad.", ""]
+        csv["leg_forces.csv"] = pd.DataFrame({"leg": np.arange(1, tau.size + 1), "force_N": tau})
+    if positions is not None:
+        mp = hexapod.map(positions, rotations)
+        lines += ["## Map", "", f"{len(mp)} poses, indices about the {mp.attrs['reference']}.", "",
+                  "| index | min | max |", "|---|---|---|"]
+        for col in ["kt_min", "kt_max", "cr_max", "cond_P"]:
+            lines.append(f"| {col} ({mp.attrs['units'].get(col, '-')}) | "
+                         f"{mp[col].min():.5g} | {mp[col].max():.5g} |")
+        lines += ["", f"singular poses (cond(P) > {hexapod.singular_cond:.0e}): "
+                  f"{int(mp.singular.sum())}", ""]
+        csv["map.csv"] = mp
+        if path is not None:
+            try:
+                from .plot import plot_map
+                png = Path(path).with_name(f"{Path(path).stem}_map.png")
+                plot_map(mp[mp.z == mp.z.iloc[0]] if mp.z.nunique() > 1 else mp, "kt_min",
+                         path=png)
+                lines += [f"![kt_min map]({png.name})", ""]
+            except ImportError:
+                lines += ["(plots need the `plot` extra: pip install 'linkwright[plot]')", ""]
+    text = "\n".join(lines)
+    if path is not None:
+        path = Path(path)
+        for name, df in csv.items():
+            write_atomic(path.parent / f"{path.stem}_{name}", df.to_csv())
+        write_atomic(path, text)
+    return text

@@ -1,0 +1,287 @@
+import warnings
+
+import numpy as np
+import pytest
+
+from closure import exp_so3, rot_x, skew as skew_c
+from stiffness import (Hexapod, SingularPoseWarning, StiffnessError, blocks, compose_frames,
+                       from_blocks, transform_blocks,
+                       design_leg_stiffness, from_moment_first, plucker, report,
+                       rotate_six, screw_eigenvalues, shift_twist, shift_wrench,
+                       spring_stiffness, stiffness_matrix, to_moment_first, transform_stiffness,
+                       translational_eigenvalues, twist_transform, twist_transform_inverse,
+                       wrench_transform, wrench_transform_inverse)
+
+rng = np.random.default_rng(3)
+
+
+def rand_frame():
+    return exp_so3(rng.normal(size=3)), rng.normal(size=3)
+
+
+def pose(rv, t):
+    T = np.eye(4)
+    T[:3, :3] = exp_so3(np.asarray(rv, float))
+    T[:3, 3] = t
+    return T
+
+
+def general_hexapod(k=None):
+    a = np.radians([0, 100, 120, 220, 240, 340])
+    b = np.radians([40, 80, 160, 200, 280, 320])
+    base = np.c_[0.8 * np.cos(a), 0.8 * np.sin(a), np.zeros(6)]
+    plat = np.c_[0.4 * np.cos(b), 0.4 * np.sin(b), np.zeros(6)]
+    return Hexapod(base, plat, k if k is not None else rng.uniform(5e6, 2e7, 6))
+
+
+# ------------------------------------------------------------------ Table 1
+def test_table1_transforms_and_work_invariance():
+    R, p = rand_frame()
+    T, Ts = wrench_transform(R, p), twist_transform(R, p)
+    assert np.allclose(Ts.T @ T, np.eye(6), atol=1e-13)             # T*ᵀ T = E
+    assert np.allclose(Ts, np.linalg.inv(T).T, atol=1e-13)           # T* = T⁻ᵀ
+    assert np.allclose(T, rotate_six(R) @ shift_wrench(p), atol=1e-14)
+    assert np.allclose(Ts, rotate_six(R) @ shift_twist(p), atol=1e-14)
+    assert np.allclose(wrench_transform_inverse(R, p) @ T, np.eye(6), atol=1e-13)
+    assert np.allclose(twist_transform_inverse(R, p) @ Ts, np.eye(6), atol=1e-13)
+    W, D = rng.normal(size=6), rng.normal(size=6)
+    assert np.isclose((Ts @ D) @ (T @ W), D @ W)                     # work is invariant
+    # a force through a point: in the new frame it is the same force through r' = R(r − p)
+    f, r = rng.normal(size=3), rng.normal(size=3)
+    W = np.r_[f, np.cross(r, f)]
+    assert np.allclose(T @ W, np.r_[R @ f, np.cross(R @ (r - p), R @ f)], atol=1e-13)
+    # a small displacement: the new origin moves by δ + θ × p
+    d, th = rng.normal(size=3), rng.normal(size=3)
+    assert np.allclose(Ts @ np.r_[d, th], np.r_[R @ (d + np.cross(th, p)), R @ th], atol=1e-13)
+
+
+def test_composition_of_successive_transforms():
+    R1, p1 = rand_frame()
+    R2, p2 = rand_frame()
+    R, p = compose_frames(R1, p1, R2, p2)
+    assert np.allclose(wrench_transform(R2, p2) @ wrench_transform(R1, p1),
+                       wrench_transform(R, p), atol=1e-13)
+    # check against point maps: r'' = R2 (R1 (r − p1) − p2)
+    r = rng.normal(size=3)
+    assert np.allclose(R2 @ (R1 @ (r - p1) - p2), R @ (r - p), atol=1e-13)
+
+
+def test_moment_first_against_an_independent_adjoint():
+    """Modern Robotics: for T_ab = (R, t), Ad = [[R, 0], [[t]R, R]] acts on (ω, v) twists.
+    The seed's new frame is T_new_old = (R, −R p), so T* in moment-first order equals it."""
+    R, p = rand_frame()
+    t = -R @ p
+    Ad = np.block([[R, np.zeros((3, 3))], [skew_c(t) @ R, R]])
+    assert np.allclose(to_moment_first(twist_transform(R, p)), Ad, atol=1e-13)
+    # wrenches (m, f) transform by Ad⁻ᵀ
+    assert np.allclose(to_moment_first(wrench_transform(R, p)), np.linalg.inv(Ad).T, atol=1e-13)
+    K = general_hexapod().stiffness(np.eye(4) @ pose([0, 0, 0], [0, 0, 0.7])).K
+    Km = to_moment_first(K)
+    assert np.allclose(from_moment_first(Km), K) and np.allclose(Km[:3, :3], K[3:, 3:])
+    v = rng.normal(size=6)
+    assert np.allclose(to_moment_first(v), np.r_[v[3:], v[:3]])
+
+
+def test_formula_2_equals_P_diag_k_Pt_and_block_form_15():
+    k = rng.uniform(1, 5, 7)
+    a, r = rng.normal(size=(7, 3)), rng.normal(size=(7, 3))
+    K = spring_stiffness(k, a, r)
+    # formula (2) element by element, in a Python loop
+    Rv = [np.r_[ai / np.linalg.norm(ai), np.cross(ri, ai / np.linalg.norm(ai))] for ai, ri in zip(a, r)]
+    K2 = np.array([[sum(k[i] * Rv[i][j] * Rv[i][l] for i in range(7)) for l in range(6)]
+                   for j in range(6)])
+    assert np.allclose(K, K2, rtol=1e-13)
+    # block form (15): the new blocks from the old ones equal T K Tᵀ
+    R, p = rand_frame()
+    Kp = transform_stiffness(K, R, p)
+    for got, want in zip(transform_blocks(K, R, p), blocks(Kp)):
+        assert np.allclose(got, want, rtol=1e-12, atol=1e-12 * np.abs(K).max())
+    assert np.allclose(from_blocks(*blocks(K)), K)
+    # recompute K from the springs written in the new frame: T K Tᵀ
+    a2, r2 = (R @ a.T).T, (R @ (r - p).T).T
+    assert np.allclose(spring_stiffness(k, a2, r2), Kp, rtol=1e-12, atol=1e-12 * np.abs(K).max())
+
+
+# ------------------------------------------------------------------ hexapod
+def test_cube_hexapod_diagonal_at_cube_centre():
+    """Legs on the six cube edges that miss two opposite corners (side s, centre at the origin).
+    By hand: each axis carries two legs → K_n = 2k I; leg moments about the centre give
+    K_k = 2k h² [[2,1,1],[1,2,1],[1,1,2]] (h = s/2): eigenvalues 8kh² along the diagonal
+    (1,1,1) and 2kh² across it, and K_c = 0.  In a frame with z along the diagonal:
+    K = diag(2k, 2k, 2k, 2kh², 2kh², 8kh²)."""
+    s, k = 0.6, 3.0e7
+    h = s / 2
+    base = [(h, h, -h), (h, -h, h), (h, -h, h), (-h, h, h), (-h, h, h), (h, h, -h)]
+    plat = [(h, -h, -h), (h, -h, -h), (-h, -h, h), (-h, -h, h), (-h, h, -h), (-h, h, -h)]
+    hx = Hexapod(base, plat, k)
+    z = np.ones(3) / np.sqrt(3)
+    x = np.array([1.0, -1, 0]) / np.sqrt(2)
+    R = np.stack([x, np.cross(z, x), z])            # rows: new axes in base coordinates
+    K = hx.stiffness(np.eye(4), frame=(R, np.zeros(3))).K
+    expect = np.diag([2 * k, 2 * k, 2 * k, 2 * k * h * h, 2 * k * h * h, 8 * k * h * h])
+    assert np.allclose(K, expect, rtol=1e-12, atol=1e-6)
+
+
+def test_K_equals_fd_hessian_of_leg_energy_at_a_displaced_pose():
+    hx = general_hexapod()
+    T0 = pose([0.1, -0.05, 0.2], [0.03, -0.02, 0.65])
+    L0, _ = hx.legs(T0)                                # free lengths: legs unstressed here
+
+    def energy(D):
+        T = T0.copy()
+        T[:3, :3] = exp_so3(D[3:]) @ T0[:3, :3]
+        T[:3, 3] = exp_so3(D[3:]) @ T0[:3, 3] + D[:3]
+        L, _ = hx.legs(T)
+        return 0.5 * np.sum(hx.k * (L - L0) ** 2)
+
+    h = np.r_[1e-5 * np.ones(3), 1e-5 * np.ones(3)]
+    H = np.zeros((6, 6))
+    for i in range(6):
+        for j in range(6):
+            e_i, e_j = np.eye(6)[i] * h[i], np.eye(6)[j] * h[j]
+            H[i, j] = (energy(e_i + e_j) - energy(e_i - e_j) - energy(-e_i + e_j)
+                       + energy(-e_i - e_j)) / (4 * h[i] * h[j])
+    K = hx.stiffness(T0).K
+    assert np.abs(H - K).max() / np.abs(K).max() < 1e-6
+    assert np.allclose(K, K.T) and np.linalg.eigvalsh(K).min() > 0
+
+
+def test_frame_change_equals_recomputation_and_invariant_indices():
+    hx = general_hexapod()
+    T0 = pose([0.1, 0.2, -0.1], [0.05, 0.02, 0.7])
+    K = hx.stiffness(T0).K
+    Kp = hx.stiffness(T0, frame="platform").K
+    # recompute: the same hexapod described in the platform frame as its base frame
+    Tinv = np.linalg.inv(T0)
+    base2 = (Tinv[:3, :3] @ hx.base.T).T + Tinv[:3, 3]
+    hx2 = Hexapod(base2, hx.platform, hx.k)
+    K2 = hx2.stiffness(np.eye(4)).K
+    assert np.abs(Kp - K2).max() / np.abs(K2).max() < 1e-12
+    assert np.allclose(np.sort(screw_eigenvalues(K).real), np.sort(screw_eigenvalues(Kp).real),
+                       rtol=1e-9)
+    assert np.allclose(translational_eigenvalues(K), translational_eigenvalues(Kp), rtol=1e-12)
+    # batch map: same K as the one-pose call
+    Kb, _ = hx.stiffness_batch(T0[None], "platform")
+    assert np.allclose(Kb[0], Kp, rtol=1e-12)
+
+
+def test_compliance_through_P_deflection_and_leg_forces():
+    hx = general_hexapod()
+    T0 = pose([0.0, 0.1, 0.0], [0.0, 0.05, 0.6])
+    K = hx.stiffness(T0).K
+    C = hx.compliance(T0)
+    assert np.allclose(C @ K, np.eye(6), atol=1e-9)
+    W = np.r_[100.0, -50, 2000, 10, -30, 5]
+    tau = hx.leg_forces(T0, W)
+    assert np.allclose(hx.leg_matrix(T0) @ tau, W)
+    assert np.allclose(K @ hx.deflection(T0, W), W)
+
+
+def test_loaded_stiffness_against_fd_of_equilibrium():
+    hx = general_hexapod()
+    T0 = pose([0.05, -0.1, 0.15], [0.02, 0.01, 0.7])
+    W0 = np.r_[300.0, -200, -5000, 400, 250, -100]       # a moment about the base origin
+    res = hx.loaded_stiffness(T0, W0)
+    tau0 = hx.leg_forces(T0, W0)
+    L0, _ = hx.legs(T0)
+
+    def held_wrench(D):
+        T = T0.copy()
+        T[:3, :3] = exp_so3(D[3:]) @ T0[:3, :3]
+        T[:3, 3] = exp_so3(D[3:]) @ T0[:3, 3] + D[:3]
+        L, _ = hx.legs(T)
+        W = hx.leg_matrix(T) @ (tau0 + hx.k * (L - L0))       # about the base origin
+        return np.r_[W[:3], W[3:] - np.cross(D[:3], W[:3])]   # about the carried point δ
+
+    h = 1e-6
+    Kfd = np.stack([(held_wrench(np.eye(6)[i] * h) - held_wrench(-np.eye(6)[i] * h)) / (2 * h)
+                    for i in range(6)], 1)
+    assert res.loaded
+    assert np.abs(Kfd - res.K).max() / np.abs(res.K).max() < 1e-7
+    # not symmetric under a moment about the reference point; symmetric under a pure force there
+    skew_part = 0.5 * (res.K - res.K.T)
+    assert np.allclose(skew_part[3:, 3:], -0.5 * skew_c(W0[3:]), atol=1e-6)
+    Kf = hx.loaded_stiffness(T0, np.r_[W0[:3], 0, 0, 0]).K
+    assert np.abs(Kf - Kf.T).max() < 1e-8 * np.abs(Kf).max()
+    # with no load, the loaded stiffness is the unloaded one
+    assert np.allclose(hx.loaded_stiffness(T0, np.zeros(6)).K, hx.stiffness(T0).K)
+
+
+def test_near_singular_pose_warns_and_bad_input_raises():
+    hx = general_hexapod()
+    base = hx.base
+    flat = pose([0, 0, 0], [0, 0, 1e-9])                # platform in the base plane
+    with pytest.warns(SingularPoseWarning, match="cond"):
+        r = hx.stiffness(flat)
+    assert r.cond_P > 1e8
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        hx.stiffness(pose([0, 0, 0], [0, 0, 0.8]))
+    with pytest.raises(StiffnessError, match="not a proper rotation"):
+        hx.stiffness(np.diag([1, 1, 2, 1.0]))
+    with pytest.raises(StiffnessError, match="4x4"):
+        hx.stiffness(np.eye(3))
+    with pytest.raises(StiffnessError, match="platform_points"):
+        Hexapod(base, base[:5], 1e6)
+    with pytest.raises(StiffnessError, match="leg_stiffness"):
+        Hexapod(base, base, -1.0)
+    with pytest.raises(StiffnessError, match="direction n has zero length"):
+        plucker([0, 0, 0], [1, 2, 3])
+    with pytest.raises(StiffnessError, match="k: stiffnesses"):
+        stiffness_matrix(np.zeros((6, 6)), -np.ones(6))
+
+
+def test_map_vectorised_matches_single_poses_and_flags_singular():
+    hx = general_hexapod()
+    pos = np.c_[np.linspace(-0.1, 0.1, 5), np.zeros(5), np.r_[0.6, 0.65, 0.7, 0.75, 1e-9]]
+    rot = np.array([[0, 0, 0], [0.1, 0, 0]])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", SingularPoseWarning)
+        df = hx.map(pos, rot)
+        assert len(df) == 10
+        row = df.iloc[3]
+        K = hx.stiffness(pose([0.1, 0, 0], pos[1]), frame="platform").K
+    assert np.isclose(row.kt_min, np.linalg.eigvalsh(K[:3, :3])[0], rtol=1e-12)
+    # only the untilted platform lying in the base plane is singular (a tilted one is not)
+    sing = df[df.singular]
+    assert len(sing) == 1 and sing.z.iloc[0] == 1e-9 and sing.rx.iloc[0] == 0
+    assert sing.cr_max.isna().all() and df[~df.singular].cr_max.notna().all()
+
+
+def test_convex_design_beats_uniform_allocation():
+    hx = general_hexapod(np.ones(6))
+    poses = [pose(rv, t) for rv, t in [([0, 0, 0], [0, 0, 0.5]), ([0.3, 0, 0], [0.1, 0, 0.6]),
+                                       ([0, -0.3, 0.2], [0, 0.1, 0.45])]]
+    budget = 6e7
+    res = design_leg_stiffness(hx, poses, budget)
+    _, u = hx.legs(np.array(poses))
+    uniform = np.linalg.eigvalsh(np.einsum("i,bij,bik->bjk", np.full(6, budget / 6), u, u))[:, 0]
+    assert res.status == "optimal" and res.k.sum() <= budget * (1 + 1e-6)
+    assert res.verified > uniform.min() * 1.001
+    assert abs(res.verified - res.objective) / res.objective < 1e-4
+
+
+def test_report_markdown_and_csv(tmp_path):
+    hx = general_hexapod()
+    T0 = pose([0, 0, 0], [0, 0, 0.7])
+    text = report(hx, T0, frame="platform", wrench=np.r_[0, 0, -1000.0, 0, 0, 0],
+                  positions=np.c_[np.zeros(3), np.zeros(3), [0.6, 0.7, 0.8]], path=tmp_path / "r.md")
+    assert "N/m" in text and "rad/(N·m)" in text and "reference point" in text
+    import pandas as pd
+    K = pd.read_csv(tmp_path / "r_stiffness.csv", index_col=0).to_numpy()
+    assert np.allclose(K, hx.stiffness(T0, frame="platform").K)
+    forces = pd.read_csv(tmp_path / "r_leg_forces.csv")
+    assert np.allclose(forces.force_N, hx.leg_forces(T0, [0, 0, -1000.0, 0, 0, 0]))
+    assert (tmp_path / "r_map.csv").exists() and not list(tmp_path.glob(".*tmp"))
+
+
+def test_plot_map_writes_png(tmp_path):
+    pytest.importorskip("matplotlib")        # the `plot` extra (installed by the test extra)
+    from stiffness import plot_map
+    hx = general_hexapod()
+    g = np.linspace(-0.1, 0.1, 4)
+    pos = np.array([(x, y, 0.7) for x in g for y in g])
+    fig = plot_map(hx.map(pos), "kt_min", path=tmp_path / "m.png")
+    assert (tmp_path / "m.png").stat().st_size > 1000 and fig.axes
+    with pytest.raises(StiffnessError, match="column 'nope'"):
+        plot_map(hx.map(pos), "nope")

@@ -1,0 +1,139 @@
+import numpy as np
+import pytest
+
+from approx import (ApproxError, EngineAnalogs, PiecewiseAnalog, TransferFunction, cylinder as cy,
+                    fit, fit_least_squares)
+from approx.analog import interval_sigma
+
+F = (cy.f3, cy.psi31, cy.dpsi31)
+
+
+def cubic():
+    return (lambda x: x ** 3 - 2 * x ** 2 + x + 1, lambda x: 3 * x ** 2 - 4 * x + 1,
+            lambda x: 6 * x - 4)
+
+
+def test_cubic_is_exact_with_hand_coefficients():
+    f, df, d2f = cubic()
+    an = fit(f, df, d2f, -1.0, 2.0, knots=[-1, 0, 0.5, 2])
+    t = an.table
+    # F'' = 6x − 4 on every interval: k = 6, b = −4; F' = 3x² − 4x + c with c = 1; d = 1
+    assert np.allclose(t.k, 6) and np.allclose(t.b, -4) and np.allclose(t.c, 1) and np.allclose(t.d, 1)
+    assert np.allclose(t.sigma, 0, atol=1e-12)
+    x = np.linspace(-1, 2, 301)
+    assert np.abs(an.position(x) - f(x)).max() < 1e-13
+    assert np.abs(an.velocity(x) - df(x)).max() < 1e-13
+    assert list(t.columns) == ["x0", "x1", "k", "b", "c", "d", "sigma"]
+
+
+def test_seed_coefficients_follow_formulas_2_to_4():
+    an = fit(*F, 0.0, 0.3, knots=[0, 0.1, 0.2, 0.3])
+    x, y = an.knots, cy.dpsi31(an.knots)
+    k = (y[1:] - y[:-1]) / (x[1:] - x[:-1])           # the corrected slope
+    assert np.allclose(an.k, k) and np.allclose(an.b, y[:-1] - k * x[:-1])
+    assert np.isclose(an.c[0], cy.psi31(0.0)) and np.isclose(an.d[0], cy.f3(0.0))   # a = 0
+    # continuity of F, F', F'' at inner knots
+    for xi in x[1:-1]:
+        for g in (an.position, an.velocity, an.acceleration):
+            assert np.isclose(g(xi - 1e-12), g(xi + 1e-12), atol=1e-9)
+    assert an.gamma == pytest.approx(1 / (cy.dpsi31(0.3) - cy.dpsi31(0.0)), rel=1e-6)
+    assert an.gamma == pytest.approx(0.051, abs=5e-4)    # the seed's γ
+    # σ by formula (1) against an independent fine trapezoid rule
+    xs = np.linspace(0.1, 0.2, 200001)
+    chord = np.interp(xs, x, y)
+    ref = np.sqrt(an.gamma * np.trapezoid((chord - cy.dpsi31(xs)) ** 2, xs))
+    assert an.sigma[1] == pytest.approx(ref, rel=1e-8)
+
+
+def test_adaptive_fewest_intervals_against_brute_force():
+    delta, gamma = 0.3, 1.0
+    an = fit(lambda x: np.exp(2 * x), lambda x: 2 * np.exp(2 * x), lambda x: 4 * np.exp(2 * x),
+             0.0, 1.0, delta=delta, gamma=gamma)
+    assert np.all(an.sigma <= delta * (1 + 1e-9))
+    n = an.n
+    assert n >= 2
+    # exhaustive search: no partition with n − 1 intervals on a fine grid of knots works
+    d2 = lambda x: 4 * np.exp(2 * x)
+    grid = np.linspace(0, 1, 801)
+    if n - 1 == 1:
+        assert interval_sigma(d2, 0.0, 1.0, d2(0.0), d2(1.0), gamma) > delta
+    else:
+        assert n - 1 == 2, "brute force written for up to two intervals"
+        inner = grid[1:-1]
+        s1 = interval_sigma(d2, 0.0 * inner, inner, d2(0.0 * inner), d2(inner), gamma)
+        s2 = interval_sigma(d2, inner, 0 * inner + 1.0, d2(inner), d2(0 * inner + 1.0), gamma)
+        assert np.all(np.maximum(s1, s2) > delta)
+
+
+def test_minimax_equal_sigma_and_better_than_uniform():
+    an = fit(*F, 0.0, 0.3, n=4)
+    assert an.n == 4
+    assert np.ptp(an.sigma) / an.sigma.max() < 1e-6
+    uni = fit(*F, 0.0, 0.3, knots=np.linspace(0, 0.3, 5))
+    assert an.sigma.max() < uni.sigma.max()
+    adaptive = fit(*F, 0.0, 0.3, delta=an.sigma.max() * (1 + 1e-6))
+    assert adaptive.n == 4
+
+
+def test_least_squares_end_conditions_and_smaller_position_error():
+    interp = fit(*F, 0.0, 0.3, n=4)
+    ls = fit_least_squares(*F, interp.knots, end_conditions=True)
+    assert abs(ls.position(0.3) - cy.f3(0.3)) < 1e-12
+    assert abs(ls.velocity(0.3) - cy.psi31(0.3)) < 1e-12
+    assert abs(ls.position(0.0) - cy.f3(0.0)) < 1e-15 and abs(ls.velocity(0.0) - cy.psi31(0.0)) < 1e-15
+    e_i, e_l = interp.errors(*F), ls.errors(*F)
+    assert e_l["max_abs_F"] <= e_i["max_abs_F"]
+
+
+def test_engine_analogs_equal_closed_form():
+    ex = EngineAnalogs(cy.mechanism(), "A", 0.0, 0.3, offset=cy.f3(0.0), sign=-1.0)
+    x = np.linspace(0, 0.3, 31)
+    f, d1, d2 = ex.all(x)
+    assert np.abs(f - cy.f3(x)).max() < 1e-10
+    assert np.abs(d1 - cy.psi31(x)).max() < 1e-10
+    assert np.abs(d2 - cy.dpsi31(x)).max() < 1e-10 * np.abs(cy.dpsi31(x)).max()
+
+
+def test_drive_force_exact_engine_and_surrogate():
+    t = np.linspace(0, cy.TAU, 401)
+    q, qd, qdd = cy.drive_law(t)
+    I3 = cy.M3 * cy.B3 ** 2
+    exact = cy.psi31(q) * I3 * (cy.psi31(q) * qdd + cy.dpsi31(q) * qd ** 2)
+    ex = EngineAnalogs(cy.mechanism(), "A", 0.0, 0.3, offset=cy.f3(0.0), sign=-1.0)
+    assert isinstance(ex, TransferFunction)
+    assert np.abs(ex.force(q, qd, qdd, I3) - exact).max() < 1e-9 * np.abs(exact).max()
+    sur = fit(*F, 0.0, 0.3, delta=0.0005)
+    assert isinstance(sur, PiecewiseAnalog) and isinstance(sur, TransferFunction)
+    rms = np.sqrt(np.mean((sur.force(q, qd, qdd, I3) - exact) ** 2)) / np.sqrt(np.mean(exact ** 2))
+    assert rms < 0.01
+
+
+def test_range_towards_dead_point_and_infinite_analog():
+    # the dead point: B + q1 = B0 + B3, q1 = 0.4, where f'' is infinite
+    near = fit(*F, 0.0, 0.399, delta=0.01)
+    w = np.diff(near.knots)
+    assert w[-1] < w[0] / 10                          # knots cluster at the dead point
+    assert np.all(near.sigma <= 0.01 * (1 + 1e-9))
+    with pytest.raises(ApproxError, match="not finite at x = 0.4"):
+        fit(*F, 0.0, 0.4, delta=0.01)
+
+
+def test_bad_inputs_raise_clearly():
+    f, df, d2f = cubic()
+    with pytest.raises(ApproxError, match="a < b"):
+        fit(f, df, d2f, 1.0, 1.0, n=2)
+    with pytest.raises(ApproxError, match="finite"):
+        fit(f, df, d2f, 0.0, np.inf, n=2)
+    with pytest.raises(ApproxError, match="strictly increasing"):
+        fit(f, df, d2f, 0.0, 1.0, knots=[0, 0.6, 0.4, 1])
+    with pytest.raises(ApproxError, match="start at a"):
+        fit(f, df, d2f, 0.0, 1.0, knots=[-0.5, 0.5, 1])
+    with pytest.raises(ApproxError, match="exactly one"):
+        fit(f, df, d2f, 0.0, 1.0, n=2, delta=0.1)
+    with pytest.raises(ApproxError, match="not finite"):
+        fit(f, df, lambda x: np.where(x > 0.5, np.nan, 1.0), 0.0, 1.0, n=2)
+    an = fit(f, df, d2f, 0.0, 1.0, n=2)
+    with pytest.raises(ApproxError, match="outside"):
+        an.position(1.5)
+    an.extrapolate = True
+    assert np.isclose(an.position(1.5), f(1.5))       # the end cubic is exact here

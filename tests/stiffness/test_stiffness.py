@@ -272,7 +272,7 @@ def test_report_markdown_and_csv(tmp_path):
     assert np.allclose(K, hx.stiffness(T0, frame="platform").K)
     forces = pd.read_csv(tmp_path / "r_leg_forces.csv")
     assert np.allclose(forces.force_N, hx.leg_forces(T0, [0, 0, -1000.0, 0, 0, 0]))
-    assert (tmp_path / "r_map.csv").exists() and not list(tmp_path.glob(".*tmp"))
+    assert (tmp_path / "r_map.csv").exists() and not list(tmp_path.glob(".*"))
 
 
 def test_plot_map_writes_png(tmp_path):

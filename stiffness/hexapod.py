@@ -64,6 +64,8 @@ class Hexapod:
     origin and base axes.
     """
 
+    _BLOCK = 4096
+
     def __init__(self, base_points, platform_points, leg_stiffness, *, singular_cond=1e8):
         self.base = _check_points(base_points, "base_points")
         n = self.base.shape[0]
@@ -107,15 +109,25 @@ class Hexapod:
 
     def _leg_matrix(self, T) -> np.ndarray:
         """P for a checked batch ``(B, 4, 4)`` (the hot path of maps)."""
-        r = self.platform @ np.swapaxes(T[:, :3, :3], -1, -2) + T[:, None, :3, 3]   # (B, n, 3)
-        d = r - self.base
-        L = np.sqrt(np.einsum("bni,bni->bn", d, d))
+        B = T.shape[0]
+        Tc = np.ascontiguousarray(T[:, :3, :].transpose(1, 2, 0))        # (3, 4, B)
+        p = self.platform
+        # platform points in the base frame, one contiguous (B, n) array per coordinate
+        x, y, z = (Tc[i, 0][:, None] * p[:, 0] + Tc[i, 1][:, None] * p[:, 1]
+                   + Tc[i, 2][:, None] * p[:, 2] + Tc[i, 3][:, None] for i in range(3))
+        dx, dy, dz = x - self.base[:, 0], y - self.base[:, 1], z - self.base[:, 2]
+        L = np.sqrt(dx * dx + dy * dy + dz * dz)
         if np.any(L < 1e-12):
             raise StiffnessError("pose: a leg has zero length (attachment points coincide)")
-        u = d / L[..., None]
-        x, y, z = r[..., 0], r[..., 1], r[..., 2]
-        ux, uy, uz = u[..., 0], u[..., 1], u[..., 2]
-        return np.stack([ux, uy, uz, y * uz - z * uy, z * ux - x * uz, x * uy - y * ux], 1)
+        P = np.empty((B, 6, p.shape[0]))
+        np.divide(dx, L, out=P[:, 0])
+        np.divide(dy, L, out=P[:, 1])
+        np.divide(dz, L, out=P[:, 2])
+        ux, uy, uz = P[:, 0], P[:, 1], P[:, 2]
+        P[:, 3] = y * uz - z * uy
+        P[:, 4] = z * ux - x * uz
+        P[:, 5] = x * uy - y * ux
+        return P
 
     def cond_P(self, pose) -> np.ndarray:
         """Condition number of the dimensionless P (moment rows / platform radius)."""
@@ -287,6 +299,12 @@ class Hexapod:
         (the caller flags singular rows).  ``frame``: None (base origin) or "platform".
         ``cond=False`` skips the singular values (cond is then None)."""
         T = self._pose(T)
+        if T.shape[0] > self._BLOCK:
+            # cache blocking: the temporaries of a block stay in cache (same arithmetic)
+            parts = [self.stiffness_batch(T[i:i + self._BLOCK], frame, cond)
+                     for i in range(0, T.shape[0], self._BLOCK)]
+            Ks = np.concatenate([p[0] for p in parts])
+            return Ks, (np.concatenate([p[1] for p in parts]) if cond else None)
         P = self._leg_matrix(T)
         c = None
         if cond:

@@ -39,9 +39,18 @@ def check_rotation(R, name: str = "R", tol: float = 1e-9) -> np.ndarray:
         raise StiffnessError(f"{name}: expected a 3x3 rotation matrix, got shape {R.shape}")
     if not np.all(np.isfinite(R)):
         raise StiffnessError(f"{name}: contains non-finite entries")
-    err = np.max(np.abs(R @ np.swapaxes(R, -1, -2) - _E)) if R.size else 0.0
-    det = np.einsum("...i,...i->...", np.cross(R[..., 0, :], R[..., 1, :]), R[..., 2, :])
-    if err > tol or np.any(det < 0):
+    if R.size == 0:
+        return R
+    # rows orthonormal and right-handed: row0 × row1 = row2 (covers det = +1)
+    r0, r1, r2 = R[..., 0, :], R[..., 1, :], R[..., 2, :]
+    c = np.stack([r0[..., 1] * r1[..., 2] - r0[..., 2] * r1[..., 1],
+                  r0[..., 2] * r1[..., 0] - r0[..., 0] * r1[..., 2],
+                  r0[..., 0] * r1[..., 1] - r0[..., 1] * r1[..., 0]], -1)
+    err = max(float(np.max(np.abs(np.einsum("...i,...i->...", r0, r0) - 1))),
+              float(np.max(np.abs(np.einsum("...i,...i->...", r1, r1) - 1))),
+              float(np.max(np.abs(np.einsum("...i,...i->...", r0, r1)))),
+              float(np.max(np.abs(c - r2))))
+    if err > tol:
         raise StiffnessError(f"{name}: not a proper rotation (|R Rᵀ − I| = {err:.1e}, "
                              f"tolerance {tol:.0e})")
     return R

@@ -285,3 +285,13 @@ def test_plot_map_writes_png(tmp_path):
     assert (tmp_path / "m.png").stat().st_size > 1000 and fig.axes
     with pytest.raises(StiffnessError, match="column 'nope'"):
         plot_map(hx.map(pos), "nope")
+
+
+def test_blocked_batch_equals_unblocked():
+    hx = general_hexapod()
+    T = np.array([pose(rng.normal(scale=0.1, size=3), [0, 0, 0.7] + rng.normal(scale=0.05, size=3))
+                  for _ in range(10)])
+    K1, c1 = hx.stiffness_batch(T, "platform")
+    hx._BLOCK = 3                                      # force 4 blocks
+    K2, c2 = hx.stiffness_batch(T, "platform")
+    assert np.array_equal(K1, K2) and np.array_equal(c1, c2)

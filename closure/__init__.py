@@ -12,9 +12,11 @@ frame_from_points    a joint frame from three points (seed 000's rule)
 transform, inverse, exp_se3, log_se3, rot_x, rot_y, rot_z, rotation, skew
 MechanismError       bad input (a ValueError)
 ClosureError         the loops could not be closed (carries the figures)
+Dynamics, Body       closure.dynamics: pseudo-inertias, inverse and forward dynamics
 """
+from .dynamics import Body, Dynamics, pseudo_inertia
 from .errors import ClosureError, MechanismError
-from .frames import (ad, adjoint, euler_zxz, exp_se3, exp_so3, frame_from_points, hat, inverse,
+from .frames import (ad, adjoint, cross, euler_zxz, exp_se3, exp_so3, frame_from_points, hat, inverse,
                      log_se3, log_so3, rot_x, rot_y, rot_z, rotation, skew, transform,
                      translation, vee)
 from .joints import JOINT_KINDS, Joint
@@ -28,5 +30,5 @@ __all__ = [
     "ClosureError", "solve", "sweep", "analogs", "joint_analogs", "point_analogs",
     "frame_from_points", "transform", "translation", "inverse", "exp_se3", "log_se3",
     "exp_so3", "log_so3", "rot_x", "rot_y", "rot_z", "rotation", "skew", "hat", "vee",
-    "adjoint", "ad", "euler_zxz",
+    "adjoint", "ad", "euler_zxz", "Dynamics", "Body", "pseudo_inertia", "cross",
 ]

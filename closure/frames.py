@@ -13,7 +13,7 @@ import numpy as np
 from .errors import MechanismError
 
 __all__ = [
-    "skew", "unskew", "hat", "vee", "rotation", "rot_x", "rot_y", "rot_z",
+    "skew", "cross", "unskew", "hat", "vee", "rotation", "rot_x", "rot_y", "rot_z",
     "transform", "translation", "inverse", "adjoint", "ad", "exp_so3", "log_so3",
     "exp_se3", "log_se3", "frame_from_points", "euler_zxz", "check_transform",
 ]
@@ -24,10 +24,25 @@ _EYE3 = np.eye(3)
 def skew(p: np.ndarray) -> np.ndarray:
     """Skew-symmetric matrix ``[p]×`` of a 3-vector, shape ``(..., 3)`` → ``(..., 3, 3)``."""
     p = np.asarray(p, dtype=float)
-    z = np.zeros(p.shape[:-1])
+    out = np.zeros(p.shape[:-1] + (3, 3))
     x, y, w = p[..., 0], p[..., 1], p[..., 2]
-    return np.stack([np.stack([z, -w, y], -1), np.stack([w, z, -x], -1),
-                     np.stack([-y, x, z], -1)], -2)
+    out[..., 0, 1], out[..., 0, 2] = -w, y
+    out[..., 1, 0], out[..., 1, 2] = w, -x
+    out[..., 2, 0], out[..., 2, 1] = -y, x
+    return out
+
+
+def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Cross product of 3-vectors over broadcast leading axes (faster than ``np.cross``
+    on small batches)."""
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
 
 
 def unskew(S: np.ndarray) -> np.ndarray:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import MechanismError
+from .frames import cross
 from .solver import _expected_rank, _pinv_parts
 
 __all__ = ["analogs", "bracket", "link_twists", "point_analogs", "joint_analogs"]
@@ -26,7 +27,10 @@ __all__ = ["analogs", "bracket", "link_twists", "point_analogs", "joint_analogs"
 def bracket(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Lie bracket ``[a, b]`` of twists ``(v, ω)``, shapes ``(..., 6)``."""
     va, wa, vb, wb = a[..., :3], a[..., 3:], b[..., :3], b[..., 3:]
-    return np.concatenate([np.cross(wa, vb) - np.cross(wb, va), np.cross(wa, wb)], -1)
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., :3] = cross(wa, vb) - cross(wb, va)
+    out[..., 3:] = cross(wa, wb)
+    return out
 
 
 def link_twists(mech, ks, rates: np.ndarray) -> np.ndarray:
@@ -68,7 +72,7 @@ def analogs(mech, pose, second: bool = True, ks=None):
         ``d²q_c / dx_i dx_j``.
     """
     t = mech.tree
-    ks = ks or mech.kinematic_state(pose.state)
+    ks = ks or pose._ks or mech.kinematic_state(pose.state)
     J = mech.jacobian(ks)
     unknown = mech.unknown_columns()
     inp = mech.input_columns()
@@ -148,7 +152,7 @@ def point_analogs(mech, pose, link: str, xyz):
         raise MechanismError(f"point_analogs: xyz must be a 3-vector, got shape {p.shape}")
     t = mech.tree
     li = mech.links.index(link)
-    ks = mech.kinematic_state(pose.state)
+    ks = pose._ks or mech.kinematic_state(pose.state)
     first, sec = analogs(mech, pose, ks=ks)
     T = ks["link"][:, li]
     x = T[:, :3, :3] @ p + T[:, :3, 3]
@@ -156,7 +160,7 @@ def point_analogs(mech, pose, link: str, xyz):
     V = np.stack([link_twists(mech, ks, first[:, :, i])[:, li] for i in range(ni)], 1)  # (B,ni,6)
 
     def vel(tw, pt):                     # velocity of the point pt under twist tw
-        return tw[..., :3] + np.cross(tw[..., 3:], pt)
+        return tw[..., :3] + cross(tw[..., 3:], pt)
 
     d1 = vel(V, x[:, None])              # (B, ni, 3)
     d2 = np.zeros(x.shape[:1] + (3, ni, ni))
@@ -165,7 +169,7 @@ def point_analogs(mech, pose, link: str, xyz):
             acc = link_twists(mech, ks, sec[:, :, i, k])[:, li]
             acc = acc + np.einsum("lc,bcs->bls", t.path_sign,
                                   _bias(mech, ks, first[:, :, i], first[:, :, k]))[:, li]
-            d2[:, :, i, k] = vel(acc, x) + np.cross(V[:, i, 3:], d1[:, k])
+            d2[:, :, i, k] = vel(acc, x) + cross(V[:, i, 3:], d1[:, k])
     # symmetrise the velocity-product term
     d2 = 0.5 * (d2 + np.swapaxes(d2, -1, -2))
     return x, np.swapaxes(d1, 1, 2), d2

@@ -1,7 +1,7 @@
 """Solved poses of a mechanism: joint coordinates with their error figures."""
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -50,6 +50,7 @@ class Pose:
     condition: np.ndarray
     status: np.ndarray
     scalar: bool = False
+    _ks: dict | None = field(default=None, repr=False, compare=False)
 
     @property
     def state(self):

@@ -50,6 +50,11 @@ def _expected_rank(mech) -> int:
 
 def _pinv_parts(J, rank):
     """Truncated SVD pieces of a batch of matrices: (U, inv_s, Vt, condition)."""
+    if J.shape[-1] == 0 or J.shape[-2] == 0:         # open chain: nothing to solve
+        k = min(J.shape[-2:])
+        B = J.shape[:-2]
+        return (np.zeros(B + (J.shape[-2], k)), np.zeros(B + (k,)),
+                np.zeros(B + (k, J.shape[-1])), np.ones(B))
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
     k = np.arange(s.shape[-1])
     keep = k < rank
@@ -80,15 +85,39 @@ def _apply(mech, state, dv_scaled):
     return q, rot
 
 
-def _residual_norm(mech, state):
-    r = mech._scaled_residual(mech.kinematic_state(state, twists=False))
-    return np.max(np.abs(r), axis=1) if r.shape[1] else np.zeros(r.shape[0])
+_BATCHED = ("link", "frame_a", "S", "r")
+
+
+def _ks_take(ks, idx):
+    """The kinematic state of batch elements ``idx``."""
+    out = {k: ks[k][idx] for k in _BATCHED if k in ks}
+    out["A"] = [a[idx] for a in ks["A"]]
+    for k in ("carrier", "deps"):
+        if k in ks:
+            out[k] = ks[k]
+    return out
+
+
+def _ks_put(dst, idx, src, sub):
+    """Store elements ``sub`` of ``src`` at positions ``idx`` of ``dst``."""
+    for k in _BATCHED:
+        if k in dst:
+            dst[k][idx] = src[k][sub]
+    for a, b in zip(dst["A"], src["A"]):
+        a[idx] = b[sub]
 
 
 def newton(mech, state, opts: SolverOptions):
     """Correct a batch of states (inputs already set) so that every loop closes.
 
-    Returns ``(state, residual, iterations, condition, converged)``.
+    Each iteration evaluates the kinematic state once per line-search trial;
+    the accepted trial's state serves the next iteration's Jacobian.  A pose is
+    converged when the Newton step computed at it is at most ``xtol`` and its
+    residual is at rounding level (or stopped falling); the residual and
+    condition number reported are those of the state returned.
+
+    Returns ``(state, residual, iterations, condition, converged, ks)`` where
+    ``ks`` is the kinematic state of the returned poses.
     """
     unknown = mech.unknown_columns()
     rank = _expected_rank(mech)
@@ -96,47 +125,65 @@ def newton(mech, state, opts: SolverOptions):
     B = q.shape[0]
     its = np.zeros(B, dtype=int)
     done = np.zeros(B, dtype=bool)
-    res = _residual_norm(mech, (q, rot))
+    cond = np.ones(B)
+    ks_all = mech.kinematic_state((q, rot))
+    res = _norm(mech._scaled_residual(ks_all))
+    prev = np.full(B, np.inf)
+    if unknown.size == 0:                        # open chain driven in every joint
+        done[:] = True
     for _ in range(opts.maxiter):
         act = np.nonzero(~done)[0]
         if act.size == 0:
             break
-        st = (q[act], rot[act])
-        ks = mech.kinematic_state(st)
+        ks = _ks_take(ks_all, act)
         r = mech._scaled_residual(ks)
         J = mech._scaled_jacobian(ks)[:, :, unknown]
-        U, inv_s, Vt, _ = _pinv_parts(J, rank)
+        U, inv_s, Vt, cond[act] = _pinv_parts(J, rank)
+        its[act] += 1
         coef = np.einsum("bmk,bm->bk", U, r) * inv_s
         step_u = -np.einsum("bkn,bk->bn", Vt, coef)
         big = np.max(np.abs(step_u), axis=1)
+        # converged: a step of at most xtol, with the residual at rounding level or no
+        # longer falling (then the state is as good as the arithmetic allows)
+        stalled = (its[act] > 1) & (res[act] > 0.5 * prev[act])
+        conv = ((big <= opts.xtol) & ((res[act] <= 1e-14) | stalled)) | (res[act] < 1e-16)
+        prev[act] = res[act]
+        done[act[conv]] = True
+        move = np.nonzero(~conv)[0]
+        if move.size == 0:
+            break
+        act, step_u, big = act[move], step_u[move], big[move]
         step_u *= np.minimum(1.0, opts.max_step / np.maximum(big, 1e-300))[:, None]
         step = np.zeros((act.size, mech.tree.nv))
         step[:, unknown] = step_u
         # backtracking: accept the longest of 1, 1/2, 1/4 ... that does not raise the residual
         r0 = res[act]
         alpha = np.ones(act.size)
-        new_q, new_rot = q[act].copy(), rot[act].copy()
         pending = np.ones(act.size, dtype=bool)
-        for _h in range(8):
+        q0, rot0 = q[act], rot[act]
+        for h in range(8):
             idx = np.nonzero(pending)[0]
-            trial = _apply(mech, (q[act][idx], rot[act][idx]), step[idx] * alpha[idx, None])
-            rn = _residual_norm(mech, trial)
-            good = (rn <= r0[idx] * (1 + 1e-9)) | (rn < 1e-14) | (_h == 7)
-            g = idx[good]
-            new_q[g], new_rot[g] = trial[0][good], trial[1][good]
-            res[act[g]] = rn[good]
-            pending[g] = False
+            trial = _apply(mech, (q0[idx], rot0[idx]), step[idx] * alpha[idx, None])
+            ks_t = mech.kinematic_state(trial)
+            rn = _norm(mech._scaled_residual(ks_t))
+            good = (rn <= r0[idx] * (1 + 1e-9)) | (rn < 1e-14) | (h == 7)
+            g = act[idx[good]]
+            q[g], rot[g] = trial[0][good], trial[1][good]
+            res[g] = rn[good]
+            _ks_put(ks_all, g, ks_t, good)
+            pending[idx[good]] = False
             alpha[idx[~good]] *= 0.5
             if not pending.any():
                 break
-        q[act], rot[act] = new_q, new_rot
-        its[act] += 1
-        moved = np.max(np.abs(step), axis=1) * alpha
-        done[act] = (moved <= opts.xtol) | (res[act] < 1e-15)
-    ks = mech.kinematic_state((q, rot))
-    J = mech._scaled_jacobian(ks)[:, :, unknown]
-    *_, cond = _pinv_parts(J, rank)
-    return (q, rot), res, its, cond, done
+    left = np.nonzero(~done)[0]
+    if left.size:                                 # not converged: condition at the last state
+        J = mech._scaled_jacobian(_ks_take(ks_all, left))[:, :, unknown]
+        cond[left] = _pinv_parts(J, rank)[3]
+    return (q, rot), res, its, cond, done, ks_all
+
+
+def _norm(r):
+    return np.max(np.abs(r), axis=1) if r.shape[1] else np.zeros(r.shape[0])
 
 
 def _inputs_array(mech, inputs):
@@ -197,8 +244,9 @@ def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | N
     q = np.broadcast_to(q, (B,) + q.shape[1:]).copy()
     rot = np.broadcast_to(rot, (B,) + rot.shape[1:]).copy()
     q[:, mech.input_q_columns()] = x
-    state, res, its, cond, conv = newton(mech, (q, rot), opts)
+    state, res, its, cond, conv, ks = newton(mech, (q, rot), opts)
     pose = Pose(mech, x, state[0], state[1], res, its, cond, _status(res, cond, conv, opts), scalar)
+    pose._ks = ks
     bad = pose.status >= 2
     if raise_on_failure and bad.any():
         i = np.nonzero(bad)[0]
@@ -261,7 +309,7 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
             pred = _apply(mech, cur.state, dv_s[None])
             q = pred[0].copy()
             q[:, qcols] = xt
-            st, r, it, c, conv = newton(mech, (q, pred[1]), opts)
+            st, r, it, c, conv, _ = newton(mech, (q, pred[1]), opts)
             jump = np.max(np.abs(_coord_distance(mech, st, pred)))
             step_len = np.max(np.abs(dv_s[unknown])) if unknown.size else 0.0
             okay = conv[0] and r[0] <= opts.rtol and c[0] <= opts.cond_limit and \

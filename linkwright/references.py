@@ -125,3 +125,45 @@ def bricard_even(t_odd):
     θ2=θ4=θ6 and, since two links make a 120° rotation, cos θ1 cos θ2 + cos θ1 + cos θ2 = 0."""
     c = np.cos(t_odd)
     return np.arccos(-c / (1 + c))
+
+
+# ---------------------------------------------------------------- four-bar dynamics reference
+def fourbar_rod_reference(geom, masses, t2_0, g=9.81, branch=1):
+    """Independent equations of motion of a four-bar of uniform rods (crank, coupler, rocker)
+    under gravity −y, from Freudenstein's closed-form kinematics (not the engine).
+
+    Returns ``accel(θ2, ω2) -> α2``: Lagrange's equation in the virtual-work form
+    Σ m a_com · ∂r_com/∂θ2 + I α · ∂φ/∂θ2 = Σ m g · ∂r_com/∂θ2, linear in α2.
+    """
+    a, b, c, d = geom["a"], geom["b"], geom["c"], geom["d"]
+    m2, m3, m4 = masses
+    I2, I3, I4 = m2 * a * a / 12, m3 * b * b / 12, m4 * c * c / 12
+
+    def e(t):
+        return np.array([np.cos(t), np.sin(t)])
+
+    def en(t):
+        return np.array([-np.sin(t), np.cos(t)])
+
+    def kin(t2, w2, al2):
+        (t3, t4), (w3, w4), (al3, al4) = fourbar_rates(t2, w2, al2, a, b, c, d, branch)
+        acc = [a / 2 * (al2 * en(t2) - w2 ** 2 * e(t2)),
+               a * (al2 * en(t2) - w2 ** 2 * e(t2)) + b / 2 * (al3 * en(t3) - w3 ** 2 * e(t3)),
+               c / 2 * (al4 * en(t4) - w4 ** 2 * e(t4))]
+        return acc, (al2, al3, al4)
+
+    def accel(t2, w2):
+        (t3, t4), (r3, r4), _ = fourbar_rates(t2, 1.0, 0.0, a, b, c, d, branch)
+        J = [a / 2 * en(t2), a * en(t2) + b / 2 * r3 * en(t3), c / 2 * r4 * en(t4)]
+        Jphi = (1.0, r3, r4)
+        grav = sum(m * np.array([0, -g]) @ Jk for m, Jk in zip((m2, m3, m4), J))
+
+        def residual(al2):
+            acc, alphas = kin(t2, w2, al2)
+            return sum(m * ak @ Jk for m, ak, Jk in zip((m2, m3, m4), acc, J)) + \
+                sum(I * al * jp for I, al, jp in zip((I2, I3, I4), alphas, Jphi)) - grav
+
+        r0, r1 = residual(0.0), residual(1.0)
+        return -r0 / (r1 - r0)
+
+    return accel

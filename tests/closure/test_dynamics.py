@@ -194,3 +194,31 @@ def test_parallelogram_through_flat_position_stays_on_branch():
     assert (th > 0).any() and (th < 0).any()
     flat = m.solve(-t20, raise_on_failure=False)
     assert flat.condition[0] > 1e7 and flat.status_text[0] == "near-singular"
+
+
+def _load_example(name):
+    import importlib.util
+    import pathlib
+    spec = importlib.util.spec_from_file_location(
+        name, pathlib.Path(__file__).parents[2] / "examples" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_crane_two_loops_two_dof_inverse_forward_and_energy():
+    cr = _load_example("crane")
+    d = cr.dynamics()
+    assert d.m.n_loops == 2 and d.m.mobility == 2
+    law = cr.lifting_motion
+
+    def drive(t, x, xd):
+        return d.inverse(np.array([t]), law).iloc[0][["drive:stroke1", "drive:stroke2"]] \
+            .to_numpy(float)
+
+    t = np.linspace(0, 1.0, 6)
+    fwd = d.simulate((0, 1.0), [0.0, 0.0], [0.0, 0.0], t_eval=t, drive=drive, rtol=1e-10,
+                     atol=1e-12)
+    x_ref = law(t)[0]
+    assert np.abs(fwd[["stroke1", "stroke2"]].to_numpy() - x_ref).max() < 1e-7
+    assert np.abs(fwd.balance).max() < 1e-6 * abs(fwd.energy[0])

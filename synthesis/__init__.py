@@ -1,5 +1,23 @@
 """synthesis — finite-position synthesis of spatial dyads from screw displacements (seed 001).
 
-Not implemented yet (issue 3): screws, RR links through three positions, RRR / RRS / PRS
-dyads, variant tables verified by the closure engine.
+Main names
+----------
+Screw               finite screw displacement: axis, point, angle (rad), slide; ``matrix()``,
+                    ``from_matrix``, ``from_degrees``, composition, ``relative_screw``
+Line                a joint axis: unit direction and canonical point
+rr_links            the two RR links through three positions (motion-polynomial algebra)
+rotation_axis_between  the pure rotation carrying an axis between two positions
+enumerate_dyads     every variant of a family (RRR: 36) as a DataFrame verified by the engine
+families            seed 001's Table 3 as data, with what is implemented
+invert_chain, inverse_screws   kinematic inversion of a synthesised chain
 """
+from .dyads import DYAD_COLUMNS, chain_mechanism, enumerate_dyads, rrr_dyads, verify_chain
+from .errors import SynthesisError
+from .families import JOINT_LETTERS, families
+from .inversion import invert_chain, inverse_screws
+from .rr import RRLink, rotation_axis_between, rr_links
+from .screw import Line, Screw, relative_screw
+
+__all__ = ["Screw", "Line", "relative_screw", "RRLink", "rr_links", "rotation_axis_between",
+           "enumerate_dyads", "rrr_dyads", "verify_chain", "chain_mechanism", "DYAD_COLUMNS",
+           "families", "JOINT_LETTERS", "invert_chain", "inverse_screws", "SynthesisError"]

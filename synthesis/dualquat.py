@@ -1,0 +1,73 @@
+"""Dual quaternions as 8-vectors ``(r, d)`` with ``r, d`` quaternions ``(w, x, y, z)``.
+
+A transform (R, p) is ``σ = r + ε ½ p r`` with r the unit quaternion of R; the
+product of dual quaternions is the composition of transforms.  Used for the
+RR synthesis through the motion polynomial of three poses.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from closure.frames import log_so3
+
+__all__ = ["qmul", "qconj", "dq_mul", "dq_conj", "dq_from_matrix", "dq_to_matrix", "dq_inv"]
+
+
+def qmul(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    w1, x1, y1, z1 = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
+    w2, x2, y2, z2 = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
+    return np.stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
+                     w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
+                     w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2], -1)
+
+
+def qconj(a):
+    a = np.asarray(a, float)
+    return a * np.array([1, -1, -1, -1.0])
+
+
+def dq_mul(a, b):
+    a, b = np.asarray(a, float), np.asarray(b, float)
+    return np.concatenate([qmul(a[..., :4], b[..., :4]),
+                           qmul(a[..., :4], b[..., 4:]) + qmul(a[..., 4:], b[..., :4])], -1)
+
+
+def dq_conj(a):
+    """Quaternion conjugate of both parts (σ σ̃ is the norm, real for rigid motions)."""
+    a = np.asarray(a, float)
+    return np.concatenate([qconj(a[..., :4]), qconj(a[..., 4:])], -1)
+
+
+def dq_inv(a):
+    """Inverse of a dual quaternion with non-zero primal part."""
+    a = np.asarray(a, float)
+    r, d = a[:4], a[4:]
+    rn = r @ r
+    ri = qconj(r) / rn
+    return np.concatenate([ri, -qmul(qmul(ri, d), ri)])
+
+
+def dq_from_matrix(T):
+    T = np.asarray(T, float)
+    w = log_so3(T[:3, :3])
+    th = np.linalg.norm(w)
+    r = np.r_[np.cos(th / 2), (np.sin(th / 2) / th * w) if th > 1e-300 else 0.5 * w]
+    d = 0.5 * qmul(np.r_[0.0, T[:3, 3]], r)
+    return np.concatenate([r, d])
+
+
+def dq_to_matrix(s):
+    """Transform of a (not necessarily normalised) dual quaternion."""
+    s = np.asarray(s, float)
+    r, d = s[:4], s[4:]
+    n = r @ r
+    w, x, y, z = r / np.sqrt(n)
+    R = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+                  [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+                  [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]])
+    p = 2 * qmul(d, qconj(r))[1:] / n
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = R, p
+    return T

@@ -1,0 +1,227 @@
+"""Dyads by finite positions (seed 001): RRR by four positions, enumerated and verified.
+
+RRR (seed 001, Fig. 1).  An RR link ("2–3") is synthesised through three of
+the positions (always position 1 and two of 2, 3, 4: the screws are given from
+position 1).  The fourth ("last") position is reached from one of those three
+(the "transition" position s) by turning about axis 1 with joint 2 locked
+(and joint 3 free): axis 1 is the pure rotation that carries axis 3 from its
+s-th to its last position (L ⊥ (M_last − M_s), L ⊥ (Q_last − Q_s); DESIGN.md §5).
+
+Counting: 3 choices of the RR triple {1, j, n} × 3 choices of the transition
+position s ∈ {1, j, n} × 2 RR solutions × 2 mechanisms = 36 variants.
+Mechanism "a" (Fig. 1a) is ground –1– A –2– B –3– body with axis 1 fixed in
+the ground; mechanism "b" (Fig. 1b) is ground –2– A –1– B –3– body, where axis
+1 rides on the link turned by joint 2, so its position-1 location is axis 1
+turned back about axis 2 by joint 2's angle at position s.
+
+Every variant is verified with the closure engine: the synthesised open chain
+is built as a :class:`closure.Mechanism`, driven to its joint values at all
+positions (one batched call) and its body pose compared with the given pose.
+"""
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pandas as pd
+
+from closure import Mechanism, transform
+from closure.frames import log_so3
+
+from .errors import SynthesisError
+from .rr import RRLink, _angle_about, _rot, rotation_axis_between, rr_links
+from .screw import Line, Screw
+
+__all__ = ["enumerate_dyads", "rrr_dyads", "verify_chain", "chain_mechanism", "DYAD_COLUMNS"]
+
+DYAD_COLUMNS = (["family", "variant", "order"]
+                + [f"j{k}_{c}" for k in (1, 2, 3)
+                   for c in ("type", "ux", "uy", "uz", "x", "y", "z")]
+                + ["residual"])
+
+
+def _frame_of(line: Line) -> np.ndarray:
+    """A joint frame with Z along the line at its point."""
+    z = line.direction
+    a = np.array([1.0, 0, 0]) if abs(z[0]) < 0.9 else np.array([0, 1.0, 0])
+    x = a - (a @ z) * z
+    x /= np.linalg.norm(x)
+    return transform(np.stack([x, np.cross(z, x), z], -1), line.point)
+
+
+def chain_mechanism(types, lines) -> Mechanism:
+    """The open chain ground –j1– A –j2– B –j3– body as an engine mechanism with every
+    joint an input (so the chain is driven by its joint values)."""
+    m = Mechanism(["A", "B", "body"])
+    links = ["ground", "A", "B", "body"]
+    for k, (t, line) in enumerate(zip(types, lines)):
+        if t == "S":
+            raise SynthesisError("chain_mechanism: spherical joints are verified through their "
+                                 "rotation, not driven; use verify_chain with rotations")
+        m.add_joint(f"j{k + 1}", t, links[k], links[k + 1], at=_frame_of(line))
+        m.add_input(f"j{k + 1}")
+    return m
+
+
+def _pose_errors(A, B, length):
+    rot = np.linalg.norm(log_so3(np.swapaxes(A[..., :3, :3], -1, -2) @ B[..., :3, :3]), axis=-1)
+    pos = np.linalg.norm(A[..., :3, 3] - B[..., :3, 3], axis=-1)
+    return rot, pos / length
+
+
+def verify_chain(types, lines, joint_values, targets, length: float = 1.0) -> float:
+    """Drive the synthesised chain through its joint values with the closure engine and
+    return the largest pose error over all positions: rotation (rad) or translation
+    divided by ``length`` (the positions' size)."""
+    m = chain_mechanism(types, lines)
+    pose = m.solve(np.asarray(joint_values, float))
+    body = pose.link_frame("body")
+    body = body[None] if body.ndim == 2 else body
+    rot, pos = _pose_errors(body, np.asarray(targets, float), length)
+    return float(max(rot.max(), pos.max()))
+
+
+def _check_screws(screws, n, family):
+    if len(screws) != n - 1:
+        raise SynthesisError(f"{family}: expected {n - 1} screws S_12 … S_1{n} for {n} positions, "
+                             f"got {len(screws)}")
+    out = []
+    for k, s in enumerate(screws):
+        if not isinstance(s, Screw):
+            raise SynthesisError(f"screws[{k}]: expected a Screw, got {type(s).__name__}")
+        out.append(s)
+    return out
+
+
+def rrr_dyads(screws) -> pd.DataFrame:
+    """All RRR dyads through four positions (see the module notes for the 36 variants).
+
+    Parameters
+    ----------
+    screws : sequence of three Screw
+        S₁₂, S₁₃, S₁₄.
+    """
+    screws = _check_screws(screws, 4, "RRR")
+    T = [np.eye(4)] + [s.matrix() for s in screws]            # T[k]: position k+1 from 1
+    size = max(1.0, max(np.abs(t[:3, 3]).max() for t in T),
+               max(np.abs(s.point).max() for s in screws))
+    rows = []
+    variant = 0
+    for triple in ((1, 2, 3), (1, 2, 4), (1, 3, 4)):
+        last = ({1, 2, 3, 4} - set(triple)).pop()
+        j, n = triple[1], triple[2]
+        try:
+            links = rr_links(screws[j - 2], screws[n - 2])
+            err = None
+        except SynthesisError as e:
+            links, err = [], str(e)
+        for s in triple:
+            order = f"RR through {triple}; axis 1 carries position {s} to {last}"
+            if err is not None:
+                for rr_i, mech in itertools.product((0, 1), "ab"):
+                    variant += 1
+                    rows.append(_failed_row(variant, order, mech, rr_i, err))
+                continue
+            for rr_i, link in enumerate(links):
+                angles = {1: 0, j: 1, n: 2}
+                fa = {k: link.fixed_angles[i] for k, i in angles.items()}
+                ma = {k: link.moving_angles[i] for k, i in angles.items()}
+                M, Q = link.moving_axis.direction, link.moving_axis.point
+                Ts, Tl = T[s - 1], T[last - 1]
+                try:
+                    ax1, phi = rotation_axis_between(Ts[:3, :3] @ M, Ts[:3, :3] @ Q + Ts[:3, 3],
+                                                     Tl[:3, :3] @ M, Tl[:3, :3] @ Q + Tl[:3, 3])
+                except SynthesisError as e:
+                    for mech in "ab":
+                        variant += 1
+                        rows.append(_failed_row(variant, order, mech, rr_i, str(e)))
+                    continue
+                # joint 3 at the last position: the rest of the body's motion about axis 3
+                pre = _rot(ax1, phi) @ _rot(link.fixed_axis, fa[s])
+                beta = _angle_about(link.moving_axis, np.linalg.inv(pre) @ Tl)
+                for mech in "ab":
+                    variant += 1
+                    if mech == "a":
+                        lines = [ax1, link.fixed_axis, link.moving_axis]
+                        vals = {k: (0.0, fa[k], ma[k]) for k in triple}
+                        vals[last] = (phi, fa[s], beta)
+                    else:
+                        ax1b = ax1.transformed(_rot(link.fixed_axis, -fa[s]))
+                        lines = [link.fixed_axis, ax1b, link.moving_axis]
+                        vals = {k: (fa[k], 0.0, ma[k]) for k in triple}
+                        vals[last] = (fa[s], phi, beta)
+                    lines = _canonical_chain(lines)
+                    jv = np.array([vals[k] for k in (1, 2, 3, 4)])
+                    res = verify_chain("RRR", lines, jv, np.array(T), size)
+                    rows.append(_row("RRR", variant, order, "RRR", lines, res,
+                                     mechanism=mech, rr=rr_i, joint_values=jv))
+    df = pd.DataFrame(rows)
+    return df
+
+
+def _canonical_chain(lines):
+    out = [lines[0].canonical()]
+    for ln in lines[1:]:
+        out.append(ln.canonical(out[-1]))
+    return out
+
+
+def _row(family, variant, order, types, lines, residual, **extra):
+    row = {"family": family, "variant": variant, "order": order}
+    for k, (t, ln) in enumerate(zip(types, lines), start=1):
+        row[f"j{k}_type"] = t
+        row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"] = ln.direction
+        row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"] = ln.point
+    row["residual"] = residual
+    row["reason"] = ""
+    jv = extra.pop("joint_values", None)
+    row.update(extra)
+    if jv is not None:
+        for p in range(jv.shape[0]):
+            for k in range(jv.shape[1]):
+                row[f"q{k + 1}_pos{p + 1}"] = jv[p, k]
+    return row
+
+
+def _failed_row(variant, order, mech, rr_i, reason):
+    row = {c: np.nan for c in DYAD_COLUMNS}
+    row.update(family="RRR", variant=variant, order=order, mechanism=mech, rr=rr_i,
+               reason=reason, j1_type="R", j2_type="R", j3_type="R")
+    return row
+
+
+FAMILY_SOLVERS = {"RRR": rrr_dyads}
+
+
+def enumerate_dyads(family: str, screws) -> pd.DataFrame:
+    """Every variant the method yields for ``family`` through the given positions.
+
+    Parameters
+    ----------
+    family : str
+        A dyad family of :func:`families` that is implemented (``"RRR"``).
+    screws : sequence of Screw
+        S₁₂ … S₁N, the displacements from position 1.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns ``family, variant, order``, per joint k = 1, 2, 3 (1 at the
+        ground, 3 at the body) ``j{k}_type, j{k}_ux, j{k}_uy, j{k}_uz, j{k}_x,
+        j{k}_y, j{k}_z`` (axes in the first position, canonical points),
+        ``residual`` (largest pose error when the engine drives the dyad through
+        all positions: rad, or length relative to the positions' size),
+        ``reason`` (why a variant degenerated, else empty), ``mechanism``
+        (Fig. 1a/1b), ``rr`` (which RR solution) and the joint values
+        ``q{k}_pos{p}`` (rad) at every position.
+    """
+    fam = str(family).upper()
+    if fam not in FAMILY_SOLVERS:
+        from .families import families
+        known = families()
+        if fam in set(known.family):
+            raise SynthesisError(f"family {family!r}: in seed 001's table but not implemented yet; "
+                                 f"implemented: {', '.join(FAMILY_SOLVERS)}")
+        raise SynthesisError(f"family {family!r}: unknown; expected one of "
+                             f"{', '.join(sorted(set(known.family)))}")
+    return FAMILY_SOLVERS[fam](list(screws))

@@ -1,0 +1,174 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from closure import exp_se3
+from synthesis import (DYAD_COLUMNS, Line, Screw, SynthesisError, enumerate_dyads, families,
+                       inverse_screws, invert_chain, relative_screw, rr_links, verify_chain)
+from synthesis.rr import _rot
+
+SEED = [Screw.from_degrees([0, 0, 1], [0, 0, 0], 30, 0.7),
+        Screw.from_degrees([0.34202, 0, 0.939693], [0, 1.1, 0], 65, 0.5),
+        Screw.from_degrees([0.66, 0.043589, 0.75], [0.25, 1.2, -0.289742], 75, 0.3)]
+
+
+def rows_lines(row):
+    return [Line(np.array([row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"]]),
+                 np.array([row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"]])) for k in (1, 2, 3)]
+
+
+def same_line(a: Line, b: Line, tol=1e-7):
+    return abs(abs(a.direction @ b.direction) - 1) < tol and a.distance_to(b) < tol * 10 and \
+        np.linalg.norm(np.cross(a.direction, b.point - a.point)) < tol * 10
+
+
+# ------------------------------------------------------------------ screws
+def test_screw_roundtrip_identity_and_translation():
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        T = exp_se3(rng.normal(size=6))
+        assert np.allclose(Screw.from_matrix(T).matrix(), T, atol=1e-12)
+    s = Screw.from_matrix(np.eye(4))
+    assert s.angle == 0 and s.slide == 0
+    T = np.eye(4)
+    T[:3, 3] = [0, 3, 4]
+    s = Screw.from_matrix(T)
+    assert s.angle == 0 and np.isclose(s.slide, 5) and np.allclose(s.axis, [0, 0.6, 0.8])
+    with pytest.raises(SynthesisError, match="length 2 is not 1"):
+        Screw([0, 0, 2], [0, 0, 0], 0.1, 0)
+    # the seed's axes are unit to 6 digits: normalised silently
+    assert np.isclose(np.linalg.norm(SEED[2].axis), 1.0)
+    r = relative_screw(SEED[0], SEED[1])
+    assert np.allclose(r.matrix() @ SEED[0].matrix(), SEED[1].matrix())
+
+
+# ------------------------------------------------------------------ RR
+def test_rr_links_two_solutions_reach_three_positions():
+    links = rr_links(SEED[0], SEED[1])
+    assert len(links) == 2
+    T = [np.eye(4), SEED[0].matrix(), SEED[1].matrix()]
+    for link in links:
+        for k in range(3):
+            P = link.pose(link.fixed_angles[k], link.moving_angles[k])
+            assert np.abs(P - T[k]).max() < 1e-12
+    # Suh: the two RR links make a Bennett linkage (equal length and twist)
+    assert np.isclose(links[0].length, links[1].length) and np.isclose(links[0].twist,
+                                                                       links[1].twist)
+
+
+def test_rr_recovers_a_generating_link():
+    rng = np.random.default_rng(5)
+    g = Line(rng.normal(size=3) / np.linalg.norm(rng.normal(size=3)) if False else
+             (lambda v: v / np.linalg.norm(v))(rng.normal(size=3)), rng.normal(size=3))
+    w = Line((lambda v: v / np.linalg.norm(v))(rng.normal(size=3)), rng.normal(size=3))
+    T2 = _rot(g, 0.7) @ _rot(w, -0.4)
+    T3 = _rot(g, -0.5) @ _rot(w, 1.1)
+    links = rr_links(Screw.from_matrix(T2), Screw.from_matrix(T3))
+    assert any(same_line(l.fixed_axis, g) and same_line(l.moving_axis, w) for l in links)
+
+
+# ------------------------------------------------------------------ RRR variants
+def test_seed_example_all_36_variants_reach_all_positions():
+    df = enumerate_dyads("RRR", SEED)
+    assert len(df) == 36 and set(DYAD_COLUMNS) <= set(df.columns)
+    assert (df.reason == "").all()
+    assert df.residual.max() <= 1e-9
+    # orderings: 3 RR triples × 3 transition positions, each × 2 RR × 2 mechanisms
+    assert df.order.nunique() == 9 and (df.groupby("order").size() == 4).all()
+    assert set(df.mechanism) == {"a", "b"} and set(df.rr) == {0, 1}
+    # axes are unit; the first joint's point is the foot from the origin
+    for k in (1, 2, 3):
+        u = df[[f"j{k}_ux", f"j{k}_uy", f"j{k}_uz"]].to_numpy()
+        assert np.allclose(np.linalg.norm(u, axis=1), 1)
+    p1 = df[["j1_x", "j1_y", "j1_z"]].to_numpy()
+    u1 = df[["j1_ux", "j1_uy", "j1_uz"]].to_numpy()
+    assert np.abs(np.sum(p1 * u1, 1)).max() < 1e-12
+
+
+def _random_rrr(seed):
+    rng = np.random.default_rng(seed)
+    unit = lambda v: v / np.linalg.norm(v)
+    L = [Line(unit(rng.normal(size=3)), rng.normal(size=3)) for _ in range(3)]
+    q = np.zeros((4, 3))
+    q[1, 1:] = rng.uniform(-1.2, 1.2, 2)
+    q[2, 1:] = rng.uniform(-1.2, 1.2, 2)
+    q[3] = [rng.uniform(0.4, 1.2), q[2, 1], rng.uniform(-1.2, 1.2)]   # from position 3 to 4
+    T = [_rot(L[0], a) @ _rot(L[1], b) @ _rot(L[2], c) for a, b, c in q]
+    return L, [Screw.from_matrix(t) for t in T[1:]]
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_generating_chain_is_among_the_variants(seed):
+    L, screws = _random_rrr(seed)
+    df = enumerate_dyads("RRR", screws)
+    ok = df[df.reason == ""]
+    assert ok.residual.max() <= 1e-9
+    found = [all(same_line(a, b, 1e-6) for a, b in zip(rows_lines(r), L)) for _, r in ok.iterrows()]
+    assert any(found)
+
+
+def test_invariance_under_rigid_motion_and_scale():
+    G = exp_se3(np.array([3.0, -2.0, 5.0, 0.3, 0.8, -0.5]))
+    lam = 7.5
+    moved = [Screw.from_matrix(G @ s.matrix() @ np.linalg.inv(G)) for s in SEED]
+    scaled = [Screw(s.axis, lam * s.point, s.angle, lam * s.slide) for s in SEED]
+    d0 = enumerate_dyads("RRR", SEED)
+    for screws, f in ((moved, lambda ln: ln.transformed(G)),
+                      (scaled, lambda ln: Line(ln.direction, lam * ln.point))):
+        d1 = enumerate_dyads("RRR", screws)
+        assert d1.residual.max() <= 1e-9
+        for (_, r0), (_, r1) in zip(d0.iterrows(), d1.iterrows()):
+            assert all(same_line(f(a), b, 1e-6) for a, b in zip(rows_lines(r0), rows_lines(r1)))
+
+
+def test_hard_cases_accurate_or_clear():
+    with pytest.raises(SynthesisError, match="pure translation"):
+        rr_links(Screw([1, 0, 0], [0, 0, 0], 0.0, 0.5), SEED[1])
+    with pytest.raises(SynthesisError, match="parallel"):
+        rr_links(Screw([0, 0, 1], [0, 0, 0], 0.3, 0.1), Screw([0, 0, 1], [1, 0, 0], 0.5, 0.2))
+    with pytest.raises(SynthesisError, match=r"rotates by 1\.0e-08 rad"):
+        rr_links(Screw([0, 0, 1], [0, 0, 0], 1e-8, 0.7), SEED[1])
+    with pytest.raises(SynthesisError, match="coincide"):
+        rr_links(Screw([0, 0, 1], [0, 0, 0], 0.0, 0.0), SEED[1])
+    with pytest.raises(SynthesisError, match="coincide"):
+        rr_links(SEED[1], SEED[1])
+    # positions 2 and 3 coincide: degenerate variants are kept with their reason, not dropped:
+    # the RR triple (1, 2, 3) (12 rows) and the transitions 2 → 3 and 3 → 2 (4 rows each)
+    screws = [SEED[0], SEED[0], SEED[2]]
+    df = enumerate_dyads("RRR", screws)
+    assert len(df) == 36 and (df.reason.str.contains("coincide")).sum() == 20
+    assert df[df.reason == ""].residual.max() <= 1e-9
+    # far from the origin (×1000 offsets): same accuracy, axes shifted
+    off = np.array([1000.0, -1000.0, 1000.0])
+    far = [Screw(s.axis, s.point + off, s.angle, s.slide) for s in SEED]
+    d0, d1 = enumerate_dyads("RRR", SEED), enumerate_dyads("RRR", far)
+    assert d1.residual.max() <= 1e-9
+    shift = np.eye(4)
+    shift[:3, 3] = off
+    for (_, r0), (_, r1) in zip(d0.iterrows(), d1.iterrows()):
+        assert all(same_line(a.transformed(shift), b, 1e-6)
+                   for a, b in zip(rows_lines(r0), rows_lines(r1)))
+
+
+def test_kinematic_inversion_reaches_the_inverse_positions():
+    df = enumerate_dyads("RRR", SEED)
+    inv = invert_chain(df.iloc[5])
+    targets = [np.eye(4)] + [s.matrix() for s in inverse_screws(SEED)]
+    jv = np.array([[inv[f"q{k}_pos{p}"] for k in (1, 2, 3)] for p in (1, 2, 3, 4)])
+    lines = rows_lines(inv)
+    assert verify_chain("RRR", lines, jv, np.array(targets), 1.0) <= 1e-9
+    assert inv["family"] == "RRR" and inv["order"].startswith("inverse of")
+
+
+def test_families_table_and_unimplemented_family():
+    f = families()
+    assert {"family", "seed", "binary_links", "N", "N_max", "implemented"} <= set(f.columns)
+    rrr = f[f.family == "RRR"].iloc[0]
+    assert rrr.N == 4 and rrr.N_max == 5 and rrr.implemented
+    assert (f.N < f.N_max).all()
+    with pytest.raises(SynthesisError, match="not implemented yet"):
+        enumerate_dyads("RRS", SEED)
+    with pytest.raises(SynthesisError, match="unknown"):
+        enumerate_dyads("XYZ", SEED)
+    with pytest.raises(SynthesisError, match="expected 3 screws"):
+        enumerate_dyads("RRR", SEED[:2])

@@ -293,7 +293,7 @@ def frame_from_points(origin, x_point, z_point) -> np.ndarray:
         raise MechanismError("frame_from_points: the three points are collinear "
                              "(or x_point coincides with origin); expected x_point off the Z axis")
     x = x / xn
-    y = np.cross(z, x)
+    y = cross(z, x)
     return transform(np.stack([x, y, z], -1), o)
 
 

@@ -256,8 +256,10 @@ class Mechanism:
 
     def _check_mobility(self) -> None:
         t = self._tree
-        state = self.assembly()
-        J = self._scaled_jacobian(self.kinematic_state(state))[0]
+        if not t.chords:                          # open chain (tree): every coordinate is free
+            J = np.zeros((0, t.nv))
+        else:
+            J = self._scaled_jacobian(self.kinematic_state(self.assembly()))[0]
         if J.shape[0]:
             s = np.linalg.svd(J, compute_uv=False)
             rank = int(np.sum(s > 1e-8 * max(s[0], 1e-300)))

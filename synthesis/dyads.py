@@ -14,9 +14,10 @@ the ground; mechanism "b" (Fig. 1b) is ground –2– A –1– B –3– body, 
 1 rides on the link turned by joint 2, so its position-1 location is axis 1
 turned back about axis 2 by joint 2's angle at position s.
 
-Every variant is verified with the closure engine: the synthesised open chain
-is built as a :class:`closure.Mechanism`, driven to its joint values at all
-positions (one batched call) and its body pose compared with the given pose.
+Every variant is verified with the closure engine: all synthesised open chains
+hang from the ground of one :class:`closure.Mechanism`, are driven to their
+joint values at all positions in one batched call, and each body pose is
+compared with the given pose.
 """
 from __future__ import annotations
 
@@ -26,13 +27,13 @@ import numpy as np
 import pandas as pd
 
 from closure import Mechanism, transform
-from closure.frames import log_so3
+from closure.frames import cross, log_so3
 
 from .errors import SynthesisError
 from .rr import RRLink, _angle_about, _rot, rotation_axis_between, rr_links
 from .screw import Line, Screw
 
-__all__ = ["enumerate_dyads", "rrr_dyads", "verify_chain", "chain_mechanism", "DYAD_COLUMNS"]
+__all__ = ["enumerate_dyads", "rrr_dyads", "verify_chain", "verify_chains", "chain_mechanism", "DYAD_COLUMNS"]
 
 DYAD_COLUMNS = (["family", "variant", "order"]
                 + [f"j{k}_{c}" for k in (1, 2, 3)
@@ -46,7 +47,7 @@ def _frame_of(line: Line) -> np.ndarray:
     a = np.array([1.0, 0, 0]) if abs(z[0]) < 0.9 else np.array([0, 1.0, 0])
     x = a - (a @ z) * z
     x /= np.linalg.norm(x)
-    return transform(np.stack([x, np.cross(z, x), z], -1), line.point)
+    return transform(np.stack([x, cross(z, x), z], -1), line.point)
 
 
 def chain_mechanism(types, lines) -> Mechanism:
@@ -67,6 +68,38 @@ def _pose_errors(A, B, length):
     rot = np.linalg.norm(log_so3(np.swapaxes(A[..., :3, :3], -1, -2) @ B[..., :3, :3]), axis=-1)
     pos = np.linalg.norm(A[..., :3, 3] - B[..., :3, 3], axis=-1)
     return rot, pos / length
+
+
+def verify_chains(chains, targets, length: float = 1.0) -> np.ndarray:
+    """Verify many synthesised chains at once: all of them hang from the ground of one
+    engine mechanism, driven by their joint values at every position in one batched call.
+
+    Parameters
+    ----------
+    chains : list of (types, lines, joint_values (P, 3))
+    targets : (P, 4, 4) the given poses
+
+    Returns
+    -------
+    numpy.ndarray (len(chains),): each chain's largest pose error (rad, or translation /
+    ``length``).
+    """
+    if not chains:
+        return np.zeros(0)
+    m = Mechanism()
+    for v, (types, lines, _) in enumerate(chains):
+        links = ["ground", f"A{v}", f"B{v}", f"body{v}"]
+        for name in links[1:]:
+            m.add_link(name)
+        for k, (t, line) in enumerate(zip(types, lines)):
+            m.add_joint(f"v{v}j{k + 1}", t, links[k], links[k + 1], at=_frame_of(line))
+            m.add_input(f"v{v}j{k + 1}")
+    x = np.concatenate([np.asarray(jv, float) for _, _, jv in chains], 1)
+    pose = m.solve(x)
+    link = pose._ks["link"] if pose._ks is not None else m.kinematic_state(pose.state)["link"]
+    bodies = link[:, [m.links.index(f"body{v}") for v in range(len(chains))]]   # (P, V, 4, 4)
+    rot, pos = _pose_errors(bodies, np.asarray(targets, float)[:, None], length)
+    return np.maximum(rot.max(0), pos.max(0))
 
 
 def verify_chain(types, lines, joint_values, targets, length: float = 1.0) -> float:
@@ -105,7 +138,7 @@ def rrr_dyads(screws) -> pd.DataFrame:
     T = [np.eye(4)] + [s.matrix() for s in screws]            # T[k]: position k+1 from 1
     size = max(1.0, max(np.abs(t[:3, 3]).max() for t in T),
                max(np.abs(s.point).max() for s in screws))
-    rows = []
+    rows, chains = [], []
     variant = 0
     for triple in ((1, 2, 3), (1, 2, 4), (1, 3, 4)):
         last = ({1, 2, 3, 4} - set(triple)).pop()
@@ -152,11 +185,13 @@ def rrr_dyads(screws) -> pd.DataFrame:
                         vals[last] = (fa[s], phi, beta)
                     lines = _canonical_chain(lines)
                     jv = np.array([vals[k] for k in (1, 2, 3, 4)])
-                    res = verify_chain("RRR", lines, jv, np.array(T), size)
-                    rows.append(_row("RRR", variant, order, "RRR", lines, res,
+                    rows.append(_row("RRR", variant, order, "RRR", lines, np.nan,
                                      mechanism=mech, rr=rr_i, joint_values=jv))
-    df = pd.DataFrame(rows)
-    return df
+                    chains.append((len(rows) - 1, ("RRR", lines, jv)))
+    res = verify_chains([c for _, c in chains], np.array(T), size)
+    for (i, _), r in zip(chains, res):
+        rows[i]["residual"] = float(r)
+    return pd.DataFrame(rows)
 
 
 def _canonical_chain(lines):

@@ -20,6 +20,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from closure.frames import cross
+
 from .dualquat import dq_conj, dq_from_matrix, dq_inv, dq_mul, dq_to_matrix, qmul
 from .errors import SynthesisError
 from .screw import Line, Screw, common_normal
@@ -85,7 +87,7 @@ def _axis_of_factor(h):
     # v_d = n m (pure rotation needs h_d0 = 0)
     u = v / n
     m = h[5:8] / n
-    return Line(u, np.cross(u, m)), float(h[4] / n)
+    return Line(u, cross(u, m)), float(h[4] / n)
 
 
 def _angle_about(line, T_factor):
@@ -96,7 +98,7 @@ def _angle_about(line, T_factor):
     a = a - (a @ u) * u
     a /= np.linalg.norm(a)
     b = R @ a
-    return float(np.arctan2(np.cross(a, b) @ u, a @ b))
+    return float(np.arctan2(cross(a, b) @ u, a @ b))
 
 
 def rr_links(s12: Screw, s13: Screw, *, tol: float = 1e-9) -> list[RRLink]:
@@ -264,7 +266,7 @@ def rotation_axis_between(m3, q3, m4, q4):
     """
     m3, m4, q3, q4 = (np.asarray(v, float) for v in (m3, m4, q3, q4))
     dm, dq = m4 - m3, q4 - q3
-    n = np.cross(dq, dm)
+    n = cross(dq, dm)
     size = max(1.0, np.abs(q3).max(), np.abs(q4).max())
     if np.linalg.norm(dm) < 1e-12 and np.linalg.norm(dq) < 1e-12 * size:
         raise SynthesisError("axis 1: axis 3 does not move between the two positions (the "
@@ -278,7 +280,7 @@ def rotation_axis_between(m3, q3, m4, q4):
     b = m4 - (m4 @ L) * L
     if np.linalg.norm(a) < 1e-12:
         raise SynthesisError("axis 1: axis 3 is parallel to the rotation axis")
-    ang = float(np.arctan2(np.cross(a, b) @ L, a @ b))
+    ang = float(np.arctan2(cross(a, b) @ L, a @ b))
     from closure.frames import rotation
     R = rotation(L, ang)
     # (I − R) P = Q4 − R Q3, minimum-norm P (the foot from the origin)

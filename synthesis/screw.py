@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from closure.frames import exp_so3, log_so3, rotation
+from closure.frames import cross, exp_so3, log_so3, rotation
 
 from .errors import SynthesisError
 
@@ -152,7 +152,7 @@ class Screw:
         a = w / th
         slide = float(a @ p)
         pp = p - slide * a
-        c = 0.5 * (pp + np.cross(a, pp) / np.tan(th / 2))
+        c = 0.5 * (pp + cross(a, pp) / np.tan(th / 2))
         return cls(a, c, th, slide)
 
     def line(self) -> Line:

@@ -330,6 +330,11 @@ BENCHES = {"closure": bench_closure, "synthesis": bench_synthesis, "stiffness": 
            "dynamics": bench_dynamics}
 
 
+def tables(modules=None, quick: bool = False) -> str:
+    """The benchmark tables of ``modules`` (default all) as one Markdown text."""
+    return "\n".join("\n".join(BENCHES[name](quick)) for name in (list(modules) or list(BENCHES)))
+
+
 def run(modules=None, quick: bool = False) -> int:
     modules = list(modules or BENCHES)
     for name in modules:

@@ -72,7 +72,11 @@ class Hexapod:
         if n < 6:
             raise StiffnessError(f"base_points: a hexapod needs at least 6 legs, got {n}")
         self.platform = _check_points(platform_points, "platform_points", n)
-        k = np.broadcast_to(np.asarray(leg_stiffness, dtype=float), (n,)).copy()
+        try:
+            k = np.broadcast_to(np.asarray(leg_stiffness, dtype=float), (n,)).copy()
+        except (TypeError, ValueError):
+            raise StiffnessError(f"leg_stiffness: expected a number or {n} numbers (N/m), got "
+                                 f"{leg_stiffness!r}") from None
         if not np.all(np.isfinite(k)) or np.any(k <= 0):
             raise StiffnessError("leg_stiffness: expected positive finite values (N/m)")
         self.k = k

@@ -1,0 +1,109 @@
+"""``linkwright approx``: a 1-DOF mechanism or the seed's closed form, a range, and δ / n /
+knots → the coefficient table, error figures, plots of the analogs and of the drive force."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from approx import ApproxError, EngineAnalogs, cylinder, fit, fit_least_squares
+
+from .mechspec import build_mechanism
+from .output import Outputs, Report
+from .study import Study
+
+
+def _source(study: Study, sec: Study, a, b):
+    kind = sec.get("source", "str", choices=("oscillating_cylinder", "mechanism"))
+    if kind == "oscillating_cylinder":
+        cy = study.section("cylinder", required=False)
+        B = cy.get("B", "float", cylinder.B, low=0) if cy else cylinder.B
+        B0 = cy.get("B0", "float", cylinder.B0, low=0) if cy else cylinder.B0
+        B3 = cy.get("B3", "float", cylinder.B3, low=0) if cy else cylinder.B3
+        return ((lambda x: cylinder.f3(x, B, B0, B3)), (lambda x: cylinder.psi31(x, B, B0, B3)),
+                (lambda x: cylinder.dpsi31(x, B, B0, B3)), "closed form (seed 004)", B3)
+    mech = build_mechanism(study.section("mechanism"))
+    o = sec.section("output")
+    ex = EngineAnalogs(mech, o.get("joint", "str"), a, b, index=o.get("index", "int", 0),
+                       offset=o.get("offset", "float", 0.0), sign=o.get("sign", "float", 1.0))
+    return ex.position, ex.velocity, ex.acceleration, "closure engine", None
+
+
+def run(study: Study, out: Outputs, progress) -> dict:
+    sec = study.section("approx")
+    a, b = sec.get("a"), sec.get("b")
+    if not a < b:
+        raise sec.error("b", f"expected b > a = {a}, got {b}")
+    f, df, d2f, source, arm = _source(study, sec, a, b)
+    given = [k for k in ("delta", "n", "knots") if sec.has(k)]
+    if len(given) != 1:
+        raise sec.error("delta", "give exactly one of delta, n, knots")
+    kw = {"gamma": sec.get("gamma", "float", None, low=0.0)}
+    if given[0] == "delta":
+        kw["delta"] = sec.get("delta", low=1e-12)
+    elif given[0] == "n":
+        kw["n"] = sec.get("n", "int", low=1, high=1000)
+    else:
+        kw["knots"] = sec.get("knots", "vec")
+    progress(f"fitting the acceleration analog on [{a}, {b}] ({given[0]})")
+    try:
+        an = fit(f, df, d2f, a, b, **kw)
+        ls = fit_least_squares(f, df, d2f, an.knots, gamma=an.gamma)
+    except ApproxError as e:
+        raise sec.error(given[0], str(e)) from None
+    out.add_csv("coefficients.csv", an.table)
+    out.add_csv("coefficients_least_squares.csv", ls.table)
+    x = np.linspace(a, b, 301)
+    samples = pd.DataFrame({"x": x, "f": f(x), "F": an.position(x), "F_ls": ls.position(x),
+                            "df": df(x), "dF": an.velocity(x), "d2f": d2f(x),
+                            "d2F": an.acceleration(x)})
+    out.add_csv("analogs.csv", samples)
+    e_i, e_l = an.errors(f, df, d2f), ls.errors(f, df, d2f)
+    rep = Report("Piecewise-linear acceleration analog")
+    rep.text(f"Study: {study.path.name}. Exact analogs from the {source}; range [{a}, {b}]; "
+             f"{an.method}; γ = {an.gamma:.5g} ({an.gamma_rule or 'given'}).")
+    rep.heading("Coefficients (formulas 2–4 of seed 004), σ by formula (1)")
+    rep.table(an.table)
+    rep.heading("Errors: interpolation and least squares (same knots, end conditions)")
+    rep.table(pd.DataFrame([{"variant": "interpolation", **e_i},
+                            {"variant": "least squares", **e_l}]), "{:.3e}")
+
+    def plot_d2(ax):
+        ax.plot(x, d2f(x), "k--", label="exact f''")
+        ax.plot(x, an.acceleration(x), label="F'' (interpolation)")
+        ax.plot(x, ls.acceleration(x), label="F'' (least squares)")
+        ax.set_xlabel("x")
+        ax.legend()
+    rep.figure("acceleration_analog.png", plot_d2)
+    summary = {"command": "approx", "intervals": int(an.n), "max_sigma": float(an.sigma.max()),
+               "gamma": float(an.gamma), **{f"interp_{k}": v for k, v in e_i.items()},
+               **{f"ls_{k}": v for k, v in e_l.items()}}
+    fsec = study.section("force", required=False)
+    if fsec:
+        mass = fsec.get("mass", low=0.0)
+        L = fsec.get("arm", "float", arm if arm is not None else 1.0, low=0.0)
+        tau = fsec.get("duration", "float", cylinder.TAU, low=1e-9)
+        stroke = fsec.get("stroke", "float", b - a)
+        t = np.linspace(0, tau, 401)
+        q, qd, qdd = cylinder.drive_law(t, tau, stroke)
+        q = a + q
+        I = mass * L * L
+        exact = df(q) * I * (df(q) * qdd + d2f(q) * qd ** 2)
+        Qa, Ql = an.force(q, qd, qdd, I), ls.force(q, qd, qdd, I)
+        fr = pd.DataFrame({"t": t, "q": q, "Q_exact": exact, "Q_interp": Qa, "Q_ls": Ql})
+        out.add_csv("force.csv", fr)
+        rms = lambda e: float(np.sqrt(np.mean(e ** 2)) / np.sqrt(np.mean(exact ** 2)))
+        rep.heading("Drive force Q = Ψ m L² q̈ (seed 004, formula 5)")
+        rep.text(f"m = {mass} kg, L = {L} m, τ = {tau} s; RMS error: interpolation "
+                 f"{100 * rms(Qa - exact):.3f} %, least squares {100 * rms(Ql - exact):.3f} %.")
+
+        def plot_q(ax):
+            ax.plot(t, exact, "k--", label="exact")
+            ax.plot(t, Qa, label="interpolation")
+            ax.plot(t, Ql, label="least squares")
+            ax.set_xlabel("t (s)")
+            ax.set_ylabel("Q (N)")
+            ax.legend()
+        rep.figure("drive_force.png", plot_q)
+        summary.update(force_rms_interp=rms(Qa - exact), force_rms_ls=rms(Ql - exact))
+    rep.add_to(out)
+    return summary

@@ -1,0 +1,105 @@
+"""``linkwright stiffness``: hexapod geometry, pose, frame and load → the stiffness report."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from closure import exp_so3
+from stiffness import (Hexapod, StiffnessError, rotational_compliance_eigenvalues,
+                       screw_eigenvalues, translational_eigenvalues)
+
+from .output import Outputs, Report
+from .study import Study
+
+
+def _pose(sec):
+    T = np.eye(4)
+    T[:3, :3] = exp_so3(np.radians(sec.get("rotation_deg", "vec3", np.zeros(3))))
+    T[:3, 3] = sec.get("position", "vec3")
+    return T
+
+
+def _axis(sec, key):
+    v = sec.get(key, "vec", None, length=3)
+    if v is None:
+        return None
+    if v[2] < 1 or v[2] != int(v[2]):
+        raise sec.error(key, f"expected [from, to, count] with an integer count ≥ 1, got {list(v)}")
+    return np.linspace(v[0], v[1], int(v[2]))
+
+
+def run(study: Study, out: Outputs, progress) -> dict:
+    h = study.section("hexapod")
+    k = h.get("leg_stiffness", "vec" if isinstance(h.data.get("leg_stiffness"), list) else "float")
+    try:
+        hx = Hexapod(h.get("base_points", "points"), h.get("platform_points", "points"), k)
+    except StiffnessError as e:
+        raise h.error("", str(e)) from None
+    T = _pose(study.section("pose"))
+    rsec = study.section("report", required=False)
+    frame = rsec.get("frame", "str", "platform", choices=("platform", "base")) if rsec else "platform"
+    wrench = rsec.get("wrench", "vec", None, length=6) if rsec else None
+    res = hx.stiffness(T, frame=None if frame == "base" else "platform")
+    K = res.K
+    cols = ["dx", "dy", "dz", "tx", "ty", "tz"]
+    out.add_csv("stiffness.csv", pd.DataFrame(K, columns=cols).assign(
+        row=["fx", "fy", "fz", "mx", "my", "mz"]))
+    rep = Report("Hexapod stiffness report")
+    rep.text(f"Study: {study.path.name}. Wrench W = (f, m) in N, N·m; displacement Δ = (δ, θ) "
+             "in m, rad (seed 003). K is the unloaded (congruence) stiffness P Kθ Pᵀ.")
+    rep.heading("Pose and frame")
+    rep.text(f"Platform origin {np.round(T[:3, 3], 6).tolist()} m; reference point "
+             f"{np.round(np.atleast_1d(res.reference), 6).tolist()} m ({frame} frame); "
+             f"cond(P) = {res.cond_P:.4g}.")
+    rep.heading("Stiffness matrix (blocks N/m, N/rad, N·m/rad)")
+    rep.table(pd.DataFrame(K, columns=["δx", "δy", "δz", "θx", "θy", "θz"]), "{:.4e}")
+    kt = translational_eigenvalues(K)
+    cr = rotational_compliance_eigenvalues(K)
+    se = screw_eigenvalues(K).real
+    idx = pd.DataFrame({"index": ["translational eigenvalues", "rotational compliance eigenvalues",
+                                  "screw eigenvalues (frame-invariant)"],
+                        "values": [np.array2string(kt, precision=5),
+                                   np.array2string(cr, precision=5),
+                                   np.array2string(se, precision=5)],
+                        "unit": ["N/m", "rad/(N·m)", "N"]})
+    rep.heading("Indices")
+    rep.table(idx)
+    summary = {"command": "stiffness", "frame": frame, "cond_P": float(res.cond_P),
+               "kt_min": float(kt[0]), "kt_max": float(kt[-1])}
+    if wrench is not None:
+        tau = hx.leg_forces(T, wrench)
+        d = hx.deflection(T, wrench)
+        lf = pd.DataFrame({"leg": np.arange(1, tau.size + 1), "force_N": tau})
+        out.add_csv("leg_forces.csv", lf)
+        rep.heading("Load case (wrench about the base origin)")
+        rep.table(lf)
+        rep.text(f"Deflection about the base origin: δ = {np.array2string(d[:3], precision=5)} m, "
+                 f"θ = {np.array2string(d[3:], precision=5)} rad.")
+        summary["max_leg_force"] = float(np.abs(tau).max())
+    msec = study.section("map", required=False)
+    if msec:
+        xs, ys, zs = (_axis(msec, k) for k in ("x", "y", "z"))
+        xs = xs if xs is not None else np.array([T[0, 3]])
+        ys = ys if ys is not None else np.array([T[1, 3]])
+        zs = zs if zs is not None else np.array([T[2, 3]])
+        pos = np.array(np.meshgrid(xs, ys, zs, indexing="ij")).reshape(3, -1).T
+        progress(f"stiffness map over {len(pos)} poses")
+        mp = hx.map(pos, None)
+        out.add_csv("map.csv", mp)
+        rep.heading(f"Map over {len(mp)} positions (about the {mp.attrs['reference']})")
+        rep.table(mp.describe().loc[["min", "max"], ["kt_min", "kt_max", "cr_max", "cond_P"]]
+                  .reset_index())
+        sl = mp[mp.z == mp.z.iloc[0]]
+
+        def heat(ax):
+            g = sl.pivot_table(index="y", columns="x", values="kt_min")
+            m = ax.pcolormesh(g.columns, g.index, g.to_numpy(), shading="auto")
+            ax.figure.colorbar(m, ax=ax, label="kt_min (N/m)")
+            ax.set_xlabel("x (m)")
+            ax.set_ylabel("y (m)")
+            ax.set_title(f"smallest translational stiffness, z = {sl.z.iloc[0]:.3g} m")
+        rep.figure("map.png", heat)
+        summary["map_poses"] = int(len(mp))
+        summary["map_singular"] = int(mp.singular.sum())
+    rep.add_to(out)
+    return summary

@@ -1,0 +1,79 @@
+"""``linkwright synth``: positions → the variant table and a ranked report."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from synthesis import Line, Screw, SynthesisError, enumerate_dyads
+
+from .output import Outputs, Report
+from .study import Study
+
+CRITERIA = ("link_length", "axis_distance")
+
+
+def _lines(row):
+    return [Line(np.array([row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"]]),
+                 np.array([row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"]])) for k in (1, 2, 3)]
+
+
+def criterion_values(df: pd.DataFrame, kind: str, center=None) -> np.ndarray:
+    """``link_length``: the sum of the two links' common-normal lengths; ``axis_distance``:
+    the largest distance of the three axes from ``center`` (both in length units)."""
+    out = np.full(len(df), np.nan)
+    for i, (_, r) in enumerate(df.iterrows()):
+        if r.get("reason", ""):
+            continue
+        L = _lines(r)
+        if kind == "link_length":
+            out[i] = L[0].distance_to(L[1]) + L[1].distance_to(L[2])
+        else:
+            out[i] = max(np.linalg.norm(np.cross(ln.direction, center - ln.point)) for ln in L)
+    return out
+
+
+def run(study: Study, out: Outputs, progress) -> dict:
+    sec = study.section("synthesis")
+    family = sec.get("family", "str")
+    screws = []
+    for p in study.sections("position"):
+        try:
+            screws.append(Screw.from_degrees(p.get("axis", "vec3"), p.get("point", "vec3"),
+                                             p.get("angle_deg", low=-360, high=360),
+                                             p.get("slide")))
+        except SynthesisError as e:
+            raise p.error("axis", str(e)) from None
+    crit = study.section("criterion", required=False)
+    kind = crit.get("kind", "str", "link_length", choices=CRITERIA) if crit else "link_length"
+    center = crit.get("center", "vec3", np.zeros(3)) if crit else np.zeros(3)
+    progress(f"synthesising {family} through {len(screws) + 1} positions")
+    try:
+        df = enumerate_dyads(family, screws)
+    except SynthesisError as e:
+        raise study.error("synthesis.family" if "family" in str(e) else "position", str(e)) \
+            from None
+    df["criterion"] = criterion_values(df, kind, center)
+    ranked = df.sort_values(["residual", "criterion"], na_position="last")
+    by_crit = df[df.reason == ""].sort_values("criterion")
+    out.add_csv("variants.csv", df)
+    rep = Report(f"{family} dyad synthesis")
+    rep.text(f"Study: {study.path.name}. {len(df)} variants, "
+             f"{int((df.reason == '').sum())} regular; largest residual of the regular ones "
+             f"{df[df.reason == ''].residual.max():.2e} (engine-verified pose error).")
+    rep.heading(f"Ranked by the design criterion: {kind}")
+    cols = ["variant", "order", "mechanism", "rr", "residual", "criterion"]
+    rep.table(by_crit[cols])
+    rep.heading("Ranked by residual")
+    rep.table(ranked[cols + ["reason"]])
+    rep.heading("Axes of the best variant by the criterion (first position)")
+    if len(by_crit):
+        best = by_crit.iloc[0]
+        rep.table(pd.DataFrame([{"joint": k, "type": best[f"j{k}_type"],
+                                 **{c: best[f"j{k}_{c}"] for c in ("ux", "uy", "uz", "x", "y", "z")}}
+                                for k in (1, 2, 3)]))
+    rep.add_to(out)
+    return {"command": "synth", "family": family, "variants": int(len(df)),
+            "regular": int((df.reason == "").sum()),
+            "max_residual": float(df[df.reason == ""].residual.max()),
+            "best_variant": int(by_crit.iloc[0].variant) if len(by_crit) else None,
+            "criterion": kind}

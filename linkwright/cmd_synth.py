@@ -12,23 +12,39 @@ from .study import Study
 CRITERIA = ("link_length", "axis_distance")
 
 
-def _lines(row):
-    return [Line(np.array([row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"]]),
-                 np.array([row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"]])) for k in (1, 2, 3)]
+def _elements(row):
+    """The joints as Lines, or centre points (arrays) for spheres."""
+    out = []
+    for k in (1, 2, 3):
+        p = np.array([row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"]])
+        if row[f"j{k}_type"] == "S":
+            out.append(p)
+        else:
+            out.append(Line(np.array([row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"]]), p))
+    return out
+
+
+def _distance(a, b):
+    if isinstance(a, Line) and isinstance(b, Line):
+        return a.distance_to(b)
+    line, pt = (a, b) if isinstance(a, Line) else (b, a)
+    return float(np.linalg.norm(pt - line.foot_from(pt)))
 
 
 def criterion_values(df: pd.DataFrame, kind: str, center=None) -> np.ndarray:
-    """``link_length``: the sum of the two links' common-normal lengths; ``axis_distance``:
-    the largest distance of the three axes from ``center`` (both in length units)."""
+    """``link_length``: the sum of the two links' lengths (common normals, or the distance
+    from an axis to a sphere centre); ``axis_distance``: the largest distance of the
+    joints (axes or sphere centre) from ``center`` (both in length units)."""
     out = np.full(len(df), np.nan)
     for i, (_, r) in enumerate(df.iterrows()):
         if r.get("reason", ""):
             continue
-        L = _lines(r)
+        E = _elements(r)
         if kind == "link_length":
-            out[i] = L[0].distance_to(L[1]) + L[1].distance_to(L[2])
+            out[i] = _distance(E[0], E[1]) + _distance(E[1], E[2])
         else:
-            out[i] = max(np.linalg.norm(np.cross(ln.direction, center - ln.point)) for ln in L)
+            out[i] = max(np.linalg.norm(center - e) if not isinstance(e, Line)
+                         else _distance(e, center) for e in E)
     return out
 
 
@@ -61,7 +77,8 @@ def run(study: Study, out: Outputs, progress) -> dict:
              f"{int((df.reason == '').sum())} regular; largest residual of the regular ones "
              f"{df[df.reason == ''].residual.max():.2e} (engine-verified pose error).")
     rep.heading(f"Ranked by the design criterion: {kind}")
-    cols = ["variant", "order", "mechanism", "rr", "residual", "criterion"]
+    cols = [c for c in ("variant", "order", "mechanism", "rr", "member", "residual", "criterion")
+            if c in df.columns]
     rep.table(by_crit[cols])
     rep.heading("Ranked by residual")
     rep.table(ranked[cols + ["reason"]])

@@ -1,4 +1,5 @@
-"""Dyads by finite positions (seed 001): RRR by four positions, enumerated and verified.
+"""Dyads by finite positions (seed 001): RRR by four positions, enumerated and verified
+(RRS and PRS: :mod:`synthesis.rs`).
 
 RRR (seed 001, Fig. 1).  An RR link ("2–3") is synthesised through three of
 the positions (always position 1 and two of 2, 3, 4: the screws are given from
@@ -100,6 +101,34 @@ def verify_chains(chains, targets, length: float = 1.0) -> np.ndarray:
     bodies = link[:, [m.links.index(f"body{v}") for v in range(len(chains))]]   # (P, V, 4, 4)
     rot, pos = _pose_errors(bodies, np.asarray(targets, float)[:, None], length)
     return np.maximum(rot.max(0), pos.max(0))
+
+
+def verify_points(chains, targets, length: float = 1.0) -> np.ndarray:
+    """Verify sphere-ended chains: the two joints before the sphere are driven by the engine
+    (all chains in one mechanism, one batched call) and the sphere centre's position is
+    compared with its given positions (the sphere leaves the orientation free).
+
+    chains : list of (types (2), lines (2), joint_values (P, 2), centre (3,))
+    Returns each chain's largest centre error divided by ``length``.
+    """
+    if not chains:
+        return np.zeros(0)
+    m = Mechanism()
+    for v, (types, lines, _, _) in enumerate(chains):
+        links = ["ground", f"A{v}", f"B{v}"]
+        m.add_link(links[1])
+        m.add_link(links[2])
+        for k, (t, line) in enumerate(zip(types, lines)):
+            m.add_joint(f"v{v}j{k + 1}", t, links[k], links[k + 1], at=_frame_of(line))
+            m.add_input(f"v{v}j{k + 1}")
+    pose = m.solve(np.concatenate([np.asarray(jv, float) for _, _, jv, _ in chains], 1))
+    T = np.asarray(targets, float)
+    err = []
+    for v, (_, _, _, c) in enumerate(chains):
+        got = np.atleast_2d(pose.point(f"B{v}", c))
+        want = T[:, :3, :3] @ c + T[:, :3, 3]
+        err.append(np.linalg.norm(got - want, axis=1).max() / length)
+    return np.array(err)
 
 
 def verify_chain(types, lines, joint_values, targets, length: float = 1.0) -> float:
@@ -225,7 +254,21 @@ def _failed_row(variant, order, mech, rr_i, reason):
     return row
 
 
-FAMILY_SOLVERS = {"RRR": rrr_dyads}
+def rrs_dyads(screws) -> pd.DataFrame:
+    """RRS dyads through six positions (RS link through 1–4, axis 1 from the circle of the
+    sphere centre's later positions); see :mod:`synthesis.rs`."""
+    from .rs import sphere_dyads
+    return pd.DataFrame(sphere_dyads("RRS", _check_screws(screws, 6, "RRS")))
+
+
+def prs_dyads(screws) -> pd.DataFrame:
+    """PRS dyads through five positions (RS link through 1–4, the slide carries the sphere
+    centre to position 5); see :mod:`synthesis.rs`."""
+    from .rs import sphere_dyads
+    return pd.DataFrame(sphere_dyads("PRS", _check_screws(screws, 5, "PRS")))
+
+
+FAMILY_SOLVERS = {"RRR": rrr_dyads, "RRS": rrs_dyads, "PRS": prs_dyads}
 
 
 def enumerate_dyads(family: str, screws) -> pd.DataFrame:

@@ -33,7 +33,7 @@ _TABLE3 = [
     ("ЦГЦ, (ГЦЦ)", "ГЦ, ЦЦ (ГЦ, ЦЦ)", 6, 14),
 ]
 
-_IMPLEMENTED = {"RRR"}
+_IMPLEMENTED = {"RRR", "RRS", "PRS"}
 
 
 def _latin(word: str) -> str:

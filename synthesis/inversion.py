@@ -23,23 +23,37 @@ def invert_chain(row) -> dict:
     """The inverse of a synthesised dyad (a row of :func:`enumerate_dyads` or a dict).
 
     Returns a dict with the same column names: joint types and axes in reverse
-    order (re-canonicalised from the new ground joint), ``family`` reversed,
-    and the joint values ``q{k}_pos{p}`` reversed and negated.
+    order (re-canonicalised from the new ground joint; a sphere keeps its centre),
+    ``family`` reversed (e.g. PRS → SRP), and the joint values ``q{k}_pos{p}``
+    reversed and negated (a sphere's entry stays undefined).
     """
     get = row.__getitem__
-    types = [get(f"j{k}_type") for k in (1, 2, 3)]
-    lines = [Line(np.array([get(f"j{k}_ux"), get(f"j{k}_uy"), get(f"j{k}_uz")]),
-                  np.array([get(f"j{k}_x"), get(f"j{k}_y"), get(f"j{k}_z")])) for k in (1, 2, 3)]
-    types, lines = types[::-1], lines[::-1]
-    canon = [lines[0].canonical()]
-    for ln in lines[1:]:
-        canon.append(ln.canonical(canon[-1]))
+    types = [get(f"j{k}_type") for k in (1, 2, 3)][::-1]
+    pts = [np.array([get(f"j{k}_x"), get(f"j{k}_y"), get(f"j{k}_z")]) for k in (1, 2, 3)][::-1]
+    dirs = [np.array([get(f"j{k}_ux"), get(f"j{k}_uy"), get(f"j{k}_uz")]) for k in (1, 2, 3)][::-1]
+    # a sphere keeps its centre; an axis is re-canonicalised from the joint before it
+    # (the foot of the common normal, or of the perpendicular from a sphere's centre)
+    canon, prev = [], None
+    for t, p, d in zip(types, pts, dirs):
+        if t == "S":
+            canon.append((np.full(3, np.nan), p))
+            prev = p
+            continue
+        ln = Line(d, p)
+        if prev is None:
+            ln = ln.canonical()
+        elif isinstance(prev, Line):
+            ln = ln.canonical(prev)
+        else:
+            ln = Line(ln.direction, ln.foot_from(prev))
+        canon.append((ln.direction, ln.point))
+        prev = ln
     out = {"family": "".join(types), "variant": get("variant"),
            "order": f"inverse of: {get('order')}"}
-    for k, (t, ln) in enumerate(zip(types, canon), start=1):
+    for k, (t, (d, p)) in enumerate(zip(types, canon), start=1):
         out[f"j{k}_type"] = t
-        out[f"j{k}_ux"], out[f"j{k}_uy"], out[f"j{k}_uz"] = ln.direction
-        out[f"j{k}_x"], out[f"j{k}_y"], out[f"j{k}_z"] = ln.point
+        out[f"j{k}_ux"], out[f"j{k}_uy"], out[f"j{k}_uz"] = d
+        out[f"j{k}_x"], out[f"j{k}_y"], out[f"j{k}_z"] = p
     p = 1
     while True:
         try:

@@ -166,9 +166,67 @@ def test_families_table_and_unimplemented_family():
     rrr = f[f.family == "RRR"].iloc[0]
     assert rrr.N == 4 and rrr.N_max == 5 and rrr.implemented
     assert (f.N < f.N_max).all()
+    assert set(f[f.implemented].family) == {"RRR", "RRS", "PRS"}
     with pytest.raises(SynthesisError, match="not implemented yet"):
-        enumerate_dyads("RRS", SEED)
+        enumerate_dyads("RPR", SEED)
     with pytest.raises(SynthesisError, match="unknown"):
         enumerate_dyads("XYZ", SEED)
     with pytest.raises(SynthesisError, match="expected 3 screws"):
         enumerate_dyads("RRR", SEED[:2])
+
+
+def _sphere_positions(seed, n_pos, prismatic=False):
+    """Positions from a generating RRS / PRS chain: joint 1 locked through positions 1–4,
+    then turned (or slid) from position 4; the sphere adds arbitrary rotations."""
+    from closure import exp_so3
+    rng = np.random.default_rng(seed)
+    unit = lambda v: v / np.linalg.norm(v)
+    L1, L2 = (Line(unit(rng.normal(size=3)), rng.normal(size=3)) for _ in range(2))
+    C = rng.normal(size=3)
+    q2 = [0.0, 0.5, -0.7, 1.0]
+    T = []
+    for k in range(n_pos):
+        if k < 4:
+            Tk = _rot(L2, q2[k])
+        elif prismatic:
+            Tk = np.eye(4)
+            Tk[:3, 3] = L1.direction * 0.8
+            Tk = Tk @ _rot(L2, q2[3])
+        else:
+            Tk = _rot(L1, [0.6, -0.5][k - 4]) @ _rot(L2, q2[3])
+        R = exp_so3(rng.normal(size=3) * 0.3) if k else np.eye(3)
+        S = np.eye(4)
+        S[:3, :3], S[:3, 3] = R, C - R @ C
+        T.append(Tk @ S)
+    return [Screw.from_matrix(t) for t in T[1:]], C, L2
+
+
+@pytest.mark.parametrize("family,n_pos,prismatic", [("RRS", 6, False), ("PRS", 5, True)])
+def test_sphere_dyads_on_generated_positions(family, n_pos, prismatic):
+    screws, C, L2 = _sphere_positions(11, n_pos, prismatic)
+    df = enumerate_dyads(family, screws)
+    ok = df[df.reason == ""]
+    assert len(ok) >= 4 and ok.residual.max() <= 1e-9
+    assert (ok.j3_type == "S").all() and ok.j3_ux.isna().all()
+    # every member is a genuine RS link: its centre's first four positions are concyclic
+    # about its axis 2 (checked independently of the engine's residual)
+    T = [np.eye(4)] + [s.matrix() for s in screws]
+    for _, r in ok.iterrows():
+        ax2 = Line(np.array([r.j2_ux, r.j2_uy, r.j2_uz]), np.array([r.j2_x, r.j2_y, r.j2_z]))
+        c = np.array([r.j3_x, r.j3_y, r.j3_z])
+        pts = np.array([t[:3, :3] @ c + t[:3, 3] for t in T[:4]])
+        rad = [np.linalg.norm(np.cross(ax2.direction, p - ax2.point)) for p in pts]
+        assert np.ptp(rad) < 1e-9 and np.ptp(pts @ ax2.direction) < 1e-9
+
+
+def test_inversion_of_a_sphere_ended_dyad():
+    screws, C, _ = _sphere_positions(11, 5, prismatic=True)
+    row = enumerate_dyads("PRS", screws).iloc[0]
+    inv = invert_chain(row)
+    assert inv["family"] == "SRP" and inv["j1_type"] == "S"
+    assert np.allclose([inv["j1_x"], inv["j1_y"], inv["j1_z"]], [row.j3_x, row.j3_y, row.j3_z])
+    # the revolute axis is unchanged as a line; its point is now the foot from the centre
+    d = np.array([inv["j2_ux"], inv["j2_uy"], inv["j2_uz"]])
+    p = np.array([inv["j2_x"], inv["j2_y"], inv["j2_z"]])
+    assert abs(d @ (p - np.array([inv["j1_x"], inv["j1_y"], inv["j1_z"]]))) < 1e-12
+    assert np.isclose(inv["q3_pos5"], -row.q1_pos5)

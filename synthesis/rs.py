@@ -1,0 +1,208 @@
+"""RS links through four positions and the sphere-ended dyads RRS (six positions) and
+PRS (five positions) of seed 001.
+
+An RS link (revolute axis in the ground, sphere centre C in the body) reaches
+four positions when C's four positions lie on a circle about the axis.  For an
+axis direction g, C is fixed by the three linear conditions (C_j − C_1)·g = 0;
+the circle's centre O then needs (C_1 − C_j)·O = ½(|C_1|² − |C_j|²) and
+g·O = g·C_1: four linear equations for three unknowns, consistent only when
+their 4x4 augmented determinant h(g) vanishes.  So the RS links form a
+one-parameter family (a curve of directions g on the sphere): linkwright traces
+it deterministically along great circles of directions (a fine sampling of
+h, every sign change refined by Brent's method), and keeps the links that then
+reach the four positions to tolerance.
+
+RRS (seed 001, Fig. 2): the RS link ("2–3") works through positions 1–4 with
+joint 1 locked; the two later positions are reached by turning about axis 1
+(joint 2 locked at its value in the transition position s, the sphere free),
+so axis 1 is the axis of the circle through C_s, C_5, C_6.  PRS: the slide
+of the prismatic joint 1 carries C from C_s to C_5.
+"""
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+from scipy.optimize import brentq
+
+from closure.frames import cross
+
+from .errors import SynthesisError
+from .screw import Line
+
+__all__ = ["rs_links", "RSLink"]
+
+
+class RSLink:
+    """An RS link: ``axis`` (Line in the ground, canonical point) and ``centre`` (the sphere
+    centre in the first position), with the joint angles at the positions and the circle
+    residual (length)."""
+
+    def __init__(self, axis: Line, centre, angles, residual):
+        self.axis, self.centre = axis, np.asarray(centre, float)
+        self.angles, self.residual = np.asarray(angles, float), float(residual)
+
+
+def _centre_for(g, T):
+    """Sphere centres C for axis directions g (..., 3): (C_j − C_1)·g = 0, j = 2, 3, 4."""
+    g = np.asarray(g, float)
+    A = np.stack([g @ (t[:3, :3] - np.eye(3)) for t in T[1:]], -2)        # (..., 3, 3)
+    b = -np.stack([g @ t[:3, 3] for t in T[1:]], -1)
+    cond = np.linalg.cond(A)
+    ok = np.isfinite(cond) & (cond < 1e10)
+    C = np.full(g.shape, np.nan)
+    if np.any(ok):
+        C[ok] = np.linalg.solve(A[ok], b[ok][..., None])[..., 0]
+    return C, cond
+
+
+def _h(g, T):
+    """Concyclicity determinant of the sphere centre's four positions, batched over g."""
+    g = np.atleast_2d(np.asarray(g, float))
+    C, _ = _centre_for(g, T)
+    Cs = np.stack([C @ t[:3, :3].T + t[:3, 3] for t in T], 1)              # (B, 4, 3)
+    rows = [np.concatenate([Cs[:, 0] - Cs[:, j], -0.5 * (np.sum(Cs[:, 0] ** 2, -1)
+                                                       - np.sum(Cs[:, j] ** 2, -1))[:, None]], -1)
+            for j in (1, 2, 3)]
+    rows.append(np.concatenate([g, -np.sum(g * Cs[:, 0], -1)[:, None]], -1))
+    M = np.stack(rows, 1)
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        scale = np.maximum(1.0, np.nanmax(np.abs(Cs), axis=(1, 2)))
+        return np.linalg.det(np.nan_to_num(M, nan=0.0)) / scale ** 4 * \
+            np.where(np.isnan(C).any(-1), np.nan, 1.0)
+
+
+def _great_circles():
+    e = np.eye(3)
+    return [(e[0], e[1]), (e[1], e[2]), (e[2], e[0]),
+            (e[0], (e[1] + e[2]) / np.sqrt(2)), (e[1], (e[2] + e[0]) / np.sqrt(2)),
+            (e[2], (e[0] + e[1]) / np.sqrt(2))]
+
+
+def rs_links(T, *, samples: int = 720, tol: float = 1e-9, circles=None) -> list[RSLink]:
+    """RS links through four positions ``T`` (4, 4, 4), position 1 the identity.
+
+    Returns the members of the one-parameter family met on the great circles of
+    axis directions ``circles`` (pairs of orthonormal vectors; default the three
+    coordinate planes and three diagonal planes), each reaching the positions to
+    ``tol`` (relative to the positions' size).
+    """
+    T = np.asarray(T, float)
+    if T.shape != (4, 4, 4):
+        raise SynthesisError(f"rs_links: expected four 4x4 positions, got shape {T.shape}")
+    size = max(1.0, np.abs(T[:, :3, 3]).max())
+    out = []
+    for e1, e2 in (circles or _great_circles()):
+        psi = np.linspace(0, np.pi, samples, endpoint=False)     # g and −g are the same axis
+        g = np.cos(psi)[:, None] * e1 + np.sin(psi)[:, None] * e2
+        hv = _h(g, T)
+        for i in range(samples - 1):
+            a, b = hv[i], hv[i + 1]
+            if not (np.isfinite(a) and np.isfinite(b)) or a * b > 0:
+                continue
+            f = lambda p: float(_h(np.cos(p) * e1 + np.sin(p) * e2, T)[0])
+            try:
+                p = brentq(f, psi[i], psi[i + 1], xtol=1e-15, rtol=1e-15)
+            except ValueError:
+                continue
+            link = _rs_from_direction(np.cos(p) * e1 + np.sin(p) * e2, T, size)
+            if link is not None and link.residual <= tol and \
+                    not any(_same(link, o) for o in out):
+                out.append(link)
+    if not out:
+        raise SynthesisError("rs_links: no RS link found on the sampled directions (positions "
+                             "degenerate, or the family misses these great circles)")
+    return out
+
+
+def _same(a: RSLink, b: RSLink) -> bool:
+    return abs(abs(a.axis.direction @ b.axis.direction) - 1) < 1e-8 and \
+        np.linalg.norm(a.centre - b.centre) < 1e-7 * max(1.0, np.linalg.norm(a.centre))
+
+
+def _rs_from_direction(g, T, size):
+    g = g / np.linalg.norm(g)
+    C, _ = _centre_for(g[None], T)
+    C = C[0]
+    if not np.all(np.isfinite(C)):
+        return None
+    Cs = np.array([t[:3, :3] @ C + t[:3, 3] for t in T])
+    A = np.array([2 * (Cs[0] - c) for c in Cs[1:]] + [g])
+    b = np.array([Cs[0] @ Cs[0] - c @ c for c in Cs[1:]] + [g @ Cs[0]])
+    O, *_ = np.linalg.lstsq(A, b, rcond=None)
+    r = np.linalg.norm(Cs - O, axis=1)
+    resid = max(np.ptp(r), np.abs((Cs - Cs[0]) @ g).max()) / size
+    if r.min() < 1e-9 * size:
+        return None
+    axis = Line(g, O).canonical()
+    u0 = Cs[0] - O
+    ang = [float(np.arctan2(cross(u0, c - O) @ g, u0 @ (c - O))) for c in Cs]
+    return RSLink(axis, C, ang, resid)
+
+
+def circle_axis(p1, p2, p3):
+    """Axis (Line) of the circle through three points, and the angles of p2, p3 about it
+    from p1."""
+    p1, p2, p3 = (np.asarray(p, float) for p in (p1, p2, p3))
+    n = cross(p2 - p1, p3 - p1)
+    if np.linalg.norm(n) < 1e-12 * max(1.0, np.abs([p1, p2, p3]).max()) ** 2:
+        raise SynthesisError("axis 1: the later positions of the sphere centre are collinear "
+                             "or coincide; no circle through them")
+    n /= np.linalg.norm(n)
+    A = np.array([2 * (p2 - p1), 2 * (p3 - p1), n])
+    b = np.array([p2 @ p2 - p1 @ p1, p3 @ p3 - p1 @ p1, n @ p1])
+    O = np.linalg.solve(A, b)
+    u = p1 - O
+    angs = [float(np.arctan2(cross(u, p - O) @ n, u @ (p - O))) for p in (p2, p3)]
+    return Line(n, O).canonical(), angs
+
+
+def sphere_dyads(family, screws):
+    """RRS (six positions) or PRS (five positions) dyads as rows for the variant table."""
+    from .dyads import _row, verify_points
+    n_pos = 6 if family == "RRS" else 5
+    T = [np.eye(4)] + [s.matrix() for s in screws]
+    size = max(1.0, max(np.abs(t[:3, 3]).max() for t in T))
+    links = rs_links(np.array(T[:4]))
+    rows, chains = [], []
+    variant = 0
+    for s in (1, 2, 3, 4):
+        later = list(range(5, n_pos + 1))
+        order = f"RS through (1, 2, 3, 4); joint 1 carries position {s} to {tuple(later)}"
+        for m_i, link in enumerate(links):
+            variant += 1
+            Cs = [t[:3, :3] @ link.centre + t[:3, 3] for t in T]
+            ax2 = link.axis
+            try:
+                if family == "RRS":
+                    ax1, angs = circle_axis(Cs[s - 1], Cs[4], Cs[5])
+                    q1 = [0.0] * 4 + angs
+                    types = "RRS"
+                else:
+                    d = Cs[4] - Cs[s - 1]
+                    if np.linalg.norm(d) < 1e-12 * size:
+                        raise SynthesisError("prismatic axis: the sphere centre does not move "
+                                             f"from position {s} to 5")
+                    ax1 = Line(d / np.linalg.norm(d), Cs[s - 1]).canonical()
+                    q1 = [0.0] * 4 + [float(np.linalg.norm(d))]
+                    types = "PRS"
+            except SynthesisError as e:
+                row = _row(family, variant, order, family, [ax2, ax2, ax2], np.nan)
+                row["reason"] = str(e)
+                rows.append(row)
+                continue
+            q2 = list(link.angles[:4]) + [link.angles[s - 1]] * (n_pos - 4)
+            centre = Line(np.array([0, 0, 1.0]), link.centre)
+            lines = [ax1, ax2.canonical(ax1), centre]
+            jv = np.c_[q1, q2]
+            row = _row(family, variant, order, types, lines, np.nan, member=m_i,
+                       joint_values=np.c_[jv, np.full(n_pos, np.nan)])
+            for c in ("ux", "uy", "uz"):
+                row[f"j3_{c}"] = np.nan                        # a sphere has no axis
+            rows.append(row)
+            chains.append((len(rows) - 1, (types[:2], lines[:2], jv, link.centre)))
+    res = verify_points([c for _, c in chains], np.array(T), size)
+    for (i, _), r in zip(chains, res):
+        rows[i]["residual"] = float(r)
+    return rows

@@ -12,12 +12,14 @@ PiecewiseAnalog     ``.knots``, ``.table`` (x0, x1, k, b, c, d, sigma), ``.posit
                     ``.velocity``, ``.acceleration`` (vectorised), ``.force``
 EngineAnalogs       exact f, f', f'' of a closure-engine mechanism (same interface)
 TransferFunction    the interface both share
+TransferDynamics    the 1-DOF drive model of seed 004 (5) on either transfer function
 cylinder            the seed's oscillating-cylinder mechanism (closed form and engine)
 """
 from . import cylinder
 from .analog import ApproxError, PiecewiseAnalog, TransferFunction
+from .dynamics import TransferDynamics
 from .engine import EngineAnalogs
 from .fit import default_gamma, fit, fit_least_squares
 
 __all__ = ["fit", "fit_least_squares", "default_gamma", "PiecewiseAnalog", "EngineAnalogs",
-           "TransferFunction", "ApproxError", "cylinder"]
+           "TransferFunction", "TransferDynamics", "ApproxError", "cylinder"]

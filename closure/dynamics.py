@@ -306,8 +306,13 @@ class Dynamics:
         drive : callable ``drive(t, x, xd) -> (n,)``, optional
             Forces on the inputs (N or N·m), e.g. from :meth:`inverse`.
         stop_at_dead_point : bool
-            A terminal event when the Jacobian condition number passes the
-            solver's limit.
+            Stop when the Jacobian condition number passes the solver's limit.
+            Whatever this says, the integration stops (with ``status`` 1 in
+            ``.attrs["ivp"]`` and the reason in its ``message``) when a step
+            reaches past a fold of the loop equations where no assembly exists.
+
+        The integrator is scipy's (``solve_ivp``'s method classes, stepped here so
+        that a dead point ends the run with the trajectory up to it).
 
         Returns
         -------
@@ -317,8 +322,6 @@ class Dynamics:
         (zero for an exact solution), ``residual``, ``condition``; the
         solve_ivp result is in ``.attrs["ivp"]``.
         """
-        from scipy.integrate import solve_ivp
-
         mech = self.m
         n = len(mech.inputs)
         x0 = np.asarray(x0, float).reshape(n)
@@ -357,20 +360,44 @@ class Dynamics:
             dw = work[0] + (float(np.asarray(drive(t, x, xd), float) @ xd) if drive else 0.0)
             return np.r_[xd, xdd, diss[0], dw]
 
-        events = []
-        if stop_at_dead_point:
-            from .solver import SolverOptions
-            limit = SolverOptions().cond_limit
+        import scipy.integrate as si
+        from scipy.integrate._ivp.ivp import METHODS
 
-            def dead(t, y):
-                return limit - pose_at(y[:n]).condition[0]
-            dead.terminal = True
-            events.append(dead)
+        from .solver import SolverOptions
+        if method not in METHODS:
+            raise MechanismError(f"simulate: method {method!r} unknown; scipy offers "
+                                 f"{', '.join(METHODS)}")
+        limit = SolverOptions().cond_limit
         y0 = np.r_[x0, xd0, 0.0, 0.0]
-        sol = solve_ivp(rhs, t_span, y0, method=method, t_eval=t_eval, rtol=rtol, atol=atol,
-                        events=events or None, **ivp_kw)
-        if not sol.success:
-            raise ClosureError(f"simulate: solve_ivp failed: {sol.message}")
+        solver = METHODS[method](rhs, t_span[0], y0, t_span[1], rtol=rtol, atol=atol, **ivp_kw)
+        ts, ys, dense = [t_span[0]], [y0], []
+        status, message = "completed", "reached the end of the time span"
+        while solver.status == "running":
+            try:
+                solver.step()
+            except ClosureError as e:      # a stage beyond a fold of the loop equations
+                status, message = "dead point", str(e)
+                break
+            if solver.status == "failed":
+                raise ClosureError(f"simulate: the integrator failed at t = {solver.t}")
+            dense.append(solver.dense_output())
+            ts.append(solver.t)
+            ys.append(solver.y.copy())
+            if stop_at_dead_point and pose_at(solver.y[:n]).condition[0] > limit:
+                status = "dead point"
+                message = f"condition number above {limit:.0e} at t = {solver.t:.6g}"
+                break
+        ts = np.array(ts)
+        if t_eval is None:
+            t_out, Y = ts, np.array(ys).T
+        else:
+            t_out = np.asarray(t_eval, float)
+            t_out = t_out[t_out <= ts[-1] + 1e-12 * max(1.0, abs(ts[-1]))]
+            seg = np.clip(np.searchsorted(ts, t_out, side="right") - 1, 0, len(dense) - 1)
+            Y = np.array([dense[k](tt) if dense else y0 for k, tt in zip(seg, t_out)]).T
+        sol = si._ivp.ivp.OdeResult(t=t_out, y=Y, status=0 if status == "completed" else 1,
+                                    message=message, success=True, nfev=solver.nfev,
+                                    t_end=ts[-1])
         X, XD = sol.y[:n].T, sol.y[n:2 * n].T
         _, pose = mech.sweep(X, return_pose=True) if len(X) > 1 else (None, mech.solve(X[0]))
         if len(pose) != len(X):

@@ -143,10 +143,11 @@ def newton(mech, state, opts: SolverOptions):
         coef = np.einsum("bmk,bm->bk", U, r) * inv_s
         step_u = -np.einsum("bkn,bk->bn", Vt, coef)
         big = np.max(np.abs(step_u), axis=1)
-        # converged: a step of at most xtol, with the residual at rounding level or no
-        # longer falling (then the state is as good as the arithmetic allows)
+        # converged: the residual at rounding level (the coordinates are then as accurate
+        # as the condition number allows), or steps of at most xtol that no longer
+        # reduce the residual
         stalled = (its[act] > 1) & (res[act] > 0.5 * prev[act])
-        conv = ((big <= opts.xtol) & ((res[act] <= 1e-14) | stalled)) | (res[act] < 1e-16)
+        conv = ((big <= opts.xtol) & stalled) | (res[act] <= 1e-14)
         prev[act] = res[act]
         done[act[conv]] = True
         move = np.nonzero(~conv)[0]

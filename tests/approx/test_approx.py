@@ -137,3 +137,32 @@ def test_bad_inputs_raise_clearly():
         an.position(1.5)
     an.extrapolate = True
     assert np.isclose(an.position(1.5), f(1.5))       # the end cubic is exact here
+
+
+def test_surrogate_stands_in_for_the_exact_closure_in_dynamics():
+    from approx import TransferDynamics
+    from closure import Dynamics
+    I3 = cy.M3 * cy.B3 ** 2
+    exact = EngineAnalogs(cy.mechanism(), "A", 0.0, 0.3, offset=cy.f3(0.0), sign=-1.0)
+    sur = fit(*F, 0.0, 0.3, delta=0.0005)
+    t = np.linspace(0, cy.TAU, 101)
+    q, qd, qdd = cy.drive_law(t)
+    # inverse: the same call on both; the engine's full dynamics (rocker point mass at C)
+    # gives the same force as the exact transfer model
+    Qe = TransferDynamics(exact, I3).drive(t, q, qd, qdd)
+    Qs = TransferDynamics(sur, I3).drive(t, q, qd, qdd)
+    m = cy.mechanism()
+    d = Dynamics(m, gravity=(0, 0, 0))
+    d.add_body("rocker", cy.M3, m.joint("C").frame_a[:3, 3])
+    Qd = d.inverse(t, q[:, None], qd[:, None], qdd[:, None])["drive:slide"].to_numpy()
+    assert np.abs(Qe - Qd).max() < 1e-8 * np.abs(Qd).max()
+    assert np.sqrt(np.mean((Qs - Qe) ** 2) / np.mean(Qe ** 2)) < 0.01
+    # forward: the exact law's force fed to the surrogate model reproduces the motion
+    law_force = lambda tt, x, xd: np.interp(tt, t, Qe)
+    fwd = TransferDynamics(sur, I3).simulate((0, 2.0), 0.0, float(qd[0]), law_force,
+                                             t_eval=np.linspace(0, 2.0, 11))
+    q_ref = cy.drive_law(fwd.t.to_numpy())[0]
+    assert np.abs(fwd.x - q_ref).max() < 2e-3
+    assert np.abs(fwd.balance).max() < 1e-6 * max(1.0, fwd.energy.abs().max())
+    with pytest.raises(ApproxError, match="TransferFunction"):
+        TransferDynamics(lambda x: x, I3)

@@ -222,3 +222,27 @@ def test_crane_two_loops_two_dof_inverse_forward_and_energy():
     x_ref = law(t)[0]
     assert np.abs(fwd[["stroke1", "stroke2"]].to_numpy() - x_ref).max() < 1e-7
     assert np.abs(fwd.balance).max() < 1e-6 * abs(fwd.energy[0])
+
+
+def test_stiff_method_and_dead_point_event():
+    # a stiff (implicit) scipy method on the simple pendulum
+    m = pendulum_chain(1)
+    d = Dynamics(m, gravity=(0, -G, 0))
+    d.add_body("l0", 2.0, (1, 0, 0))
+    t = np.linspace(0, 1, 11)
+    df = d.simulate((0, 1), [0.3], [0.5], t_eval=t, method="Radau", rtol=1e-10, atol=1e-12)
+    ref = solve_ivp(lambda t, y: [y[1], -G * np.cos(y[0])], (0, 1), [0.3, 0.5], t_eval=t,
+                    rtol=1e-12, atol=1e-12, method="DOP853")
+    assert np.abs(df.j0 - ref.y[0]).max() < 1e-7
+    # a non-Grashof four-bar driven towards its toggle position: the event stops it there
+    a, b, c, dd = 2.0, 2.5, 1.5, 3.0
+    t_lim = np.arccos((a * a + dd * dd - (b + c) ** 2) / (2 * a * dd))
+    geom = dict(a=a, b=b, c=c, d=dd)
+    _, d4 = fourbar_model(geom, (1.0, 1.0, 1.0), 0.5)
+    d4.gravity = np.zeros(3)
+    out = d4.simulate((0, 5), [0.0], [0.0], drive=lambda t, x, xd: np.array([20.0]),
+                      rtol=1e-9, atol=1e-11)
+    sol = out.attrs["ivp"]
+    assert sol.status == 1                           # terminated by the dead-point event
+    assert abs(0.5 + out.A.iloc[-1] - t_lim) < 1e-3
+    assert out.condition.iloc[-1] > 1e6

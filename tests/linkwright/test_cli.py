@@ -137,3 +137,21 @@ def test_outputs_are_atomic_on_failure(tmp_path):
     assert not (tmp_path / "o" / "a.txt").exists()
     assert not [p for p in (tmp_path / "o").iterdir()]
     shutil.rmtree(tmp_path / "o")
+
+
+def test_report_without_matplotlib_says_plots_need_the_extra(tmp_path, capsys, monkeypatch):
+    import linkwright.output as output
+    monkeypatch.setattr(output, "have_matplotlib", lambda: False)
+    code, _, _ = run(["approx", EX / "seed004_cylinder.toml", "-o", tmp_path, "--quiet"], capsys)
+    assert code == 0
+    md = (tmp_path / "report.md").read_text()
+    assert "plots need the `plot` extra" in md and not list(tmp_path.glob("*.png"))
+    assert "<table" in (tmp_path / "report.html").read_text()
+
+
+def test_bench_subcommand_writes_its_tables(tmp_path, capsys):
+    code, out, _ = run(["bench", "stiffness", "--quick", "-o", tmp_path], capsys)
+    assert code == 0 and "poses / s" in out
+    assert "speed ratio" in (tmp_path / "bench.md").read_text()
+    code, _, err = run(["bench", "nonsense"], capsys)
+    assert code == 2 and "unknown module 'nonsense'" in err

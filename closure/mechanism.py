@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import MechanismError
-from .frames import adjoint, check_transform, inverse, log_se3, transform
+from .frames import adjoint, check_transform, inverse, log_se3
 from .joints import JOINT_KINDS, Joint
 
 __all__ = ["Mechanism"]

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import ClosureError, MechanismError
+from .frames import log_so3
 from .pose import Pose
 
 __all__ = ["solve", "sweep", "SolverOptions"]
@@ -310,13 +311,13 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
             pred = _apply(mech, cur.state, dv_s[None])
             q = pred[0].copy()
             q[:, qcols] = xt
-            st, r, it, c, conv, _ = newton(mech, (q, pred[1]), opts)
+            st, r, it, c, conv, ks = newton(mech, (q, pred[1]), opts)
             jump = np.max(np.abs(_coord_distance(mech, st, pred)))
             step_len = np.max(np.abs(dv_s[unknown])) if unknown.size else 0.0
             okay = conv[0] and r[0] <= opts.rtol and c[0] <= opts.cond_limit and \
                 jump <= 0.5 * max(step_len, 1e-3)
             if okay:
-                cur = Pose(mech, xt[None], st[0], st[1], r, it, c, np.zeros(1, int))
+                cur = Pose(mech, xt[None], st[0], st[1], r, it, c, np.zeros(1, int), _ks=ks)
                 frac_done += h
                 h *= 2.0
                 halvings = max(0, halvings - 1)
@@ -375,7 +376,6 @@ def _coord_distance(mech, a, b):
         if j.kind == "S":
             si = t.s_index[j.index]
             rel = a[1][:, si] @ np.swapaxes(b[1][:, si], -1, -2)
-            from .frames import log_so3
             out[:, sl] = log_so3(rel)
         else:
             qa = a[0][:, t.q_offset[j.index]:t.q_offset[j.index] + j.nq]

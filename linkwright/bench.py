@@ -26,8 +26,8 @@ def bench_closure(quick: bool = False) -> list[str]:
     """RSSR over many crank angles: batched Gauss–Newton vs a scipy least_squares loop."""
     from scipy.optimize import least_squares
 
-    from closure import exp_so3, rot_z, transform  # noqa: F401
-    from closure.solver import SolverOptions
+    from closure import Pose
+    from closure.solver import _apply
     from linkwright.references import rssr, rssr_output
 
     n = 2000 if quick else 10_000
@@ -43,7 +43,6 @@ def bench_closure(quick: bool = False) -> list[str]:
     cq = np.r_[upper.q, lower.q]
     crot = np.r_[upper.rot, lower.rot]
     near = np.abs(x[:, None] - cx[None]).argmin(1)
-    from closure import Pose
     guess = Pose(m, cx[near, None], cq[near], crot[near], *(np.zeros(n),) * 3,
                  np.zeros(n, int))
     ref = rssr_output(phi0 + x, branch)
@@ -56,7 +55,6 @@ def bench_closure(quick: bool = False) -> list[str]:
 
     # the per-position alternative: scipy least_squares on the same loop equations
     unknown = m.unknown_columns()
-    from closure.solver import _apply
 
     def one(i):
         g = (guess.q[i:i + 1].copy(), guess.rot[i:i + 1].copy())
@@ -201,7 +199,7 @@ def bench_dynamics(quick: bool = False) -> list[str]:
     from scipy.integrate import solve_ivp
 
     from closure import Dynamics
-    from linkwright.references import fourbar, fourbar_rod_reference, freudenstein
+    from linkwright.references import fourbar, fourbar_rod_reference
 
     geom, masses, t20 = dict(a=1.0, b=3.0, c=2.5, d=3.2), (1.0, 3.0, 2.5), 0.3
     m, (t30, t40) = fourbar(**geom, t2_0=t20)

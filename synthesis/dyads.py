@@ -31,7 +31,7 @@ from closure import Mechanism, transform
 from closure.frames import cross, log_so3
 
 from .errors import SynthesisError
-from .rr import RRLink, _angle_about, _rot, rotation_axis_between, rr_links
+from .rr import _angle_about, _rot, rotation_axis_between, rr_links
 from .screw import Line, Screw
 
 __all__ = ["enumerate_dyads", "rrr_dyads", "verify_chain", "verify_chains", "chain_mechanism", "DYAD_COLUMNS"]

@@ -22,7 +22,7 @@ import numpy as np
 
 from closure.frames import cross
 
-from .dualquat import dq_conj, dq_from_matrix, dq_inv, dq_mul, dq_to_matrix, qmul
+from .dualquat import dq_conj, dq_from_matrix, dq_inv, dq_mul, dq_to_matrix
 from .errors import SynthesisError
 from .screw import Line, Screw, common_normal
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from closure.frames import cross, exp_so3, log_so3, rotation
+from closure.frames import cross, log_so3, rotation
 
 from .errors import SynthesisError
 

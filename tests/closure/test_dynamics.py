@@ -3,9 +3,9 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from closure import Mechanism, MechanismError, rot_z, translation
+from closure import Mechanism, MechanismError, translation
 from closure.dynamics import Body, Dynamics, pseudo_inertia
-from linkwright.references import fourbar, fourbar_rod_reference, freudenstein
+from linkwright.references import fourbar, fourbar_rod_reference
 
 G = 9.81
 
@@ -168,7 +168,7 @@ def test_oscillating_cylinder_drive_force_is_seed_formula():
 
 
 def test_parallelogram_through_flat_position_stays_on_branch():
-    geom = dict(a=1.0, b=2.0, c=1.0, d=2.0)              # parallelogram
+    # a parallelogram: crank = rocker = 1, coupler = ground = 2
     t20 = 0.5
     m = Mechanism(["crank", "coupler", "rocker"])
     P = {"A": (0, 0, 0), "B": (np.cos(t20), np.sin(t20), 0),

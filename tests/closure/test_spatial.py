@@ -2,7 +2,7 @@
 import numpy as np
 import pytest
 
-from closure import Mechanism, frame_from_points, point_analogs, rot_x, transform, translation
+from closure import Mechanism, frame_from_points, point_analogs, translation
 
 from linkwright.references import (bennett_theta2, bricard_even, dh_loop, rssr, rssr_output)
 

@@ -3,7 +3,7 @@ import warnings
 import numpy as np
 import pytest
 
-from closure import exp_so3, rot_x, skew as skew_c
+from closure import exp_so3, skew as skew_c
 from stiffness import (Hexapod, SingularPoseWarning, StiffnessError, blocks, compose_frames,
                        from_blocks, transform_blocks,
                        design_leg_stiffness, from_moment_first, plucker, report,

@@ -92,7 +92,7 @@ class Mechanism:
         self._tree = None
 
     def add_joint(self, name: str, kind: str, link_a: str, link_b: str, at, *,
-                  pitch: float | None = None) -> Joint:
+                  pitch: float | None = None, validate: bool = True) -> Joint:
         """Add a joint between two links.
 
         Parameters
@@ -111,6 +111,9 @@ class Mechanism:
             *a*'s pin, X along link *b*'s pin).
         pitch : float
             Helical joints: slide per radian of rotation (length / rad).
+        validate : bool
+            Check that ``at`` is a proper rigid transform (skip only for frames a
+            program built as exact rotations, e.g. by :func:`frame_from_points`).
 
         Returns
         -------
@@ -140,7 +143,7 @@ class Mechanism:
             fa = check_transform(at_arr[0], f"joint {name!r}: at[0]")
             fb = check_transform(at_arr[1], f"joint {name!r}: at[1]")
         else:
-            fa = check_transform(at_arr, f"joint {name!r}: at")
+            fa = check_transform(at_arr, f"joint {name!r}: at") if validate else at_arr
             fb = None
         joint = Joint(name, kind, link_a, link_b, fa, fa, float(pitch or 0.0), len(self.joints))
         if fb is None:

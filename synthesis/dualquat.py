@@ -14,7 +14,13 @@ __all__ = ["qmul", "qconj", "dq_mul", "dq_conj", "dq_from_matrix", "dq_to_matrix
 
 
 def qmul(a, b):
+    """Quaternion product (broadcasting; single quaternions take a scalar fast path)."""
     a, b = np.asarray(a, float), np.asarray(b, float)
+    if a.ndim == 1 and b.ndim == 1:
+        w1, x1, y1, z1 = a.tolist()
+        w2, x2, y2, z2 = b.tolist()
+        return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
+                         w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
     w1, x1, y1, z1 = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
     w2, x2, y2, z2 = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
     return np.stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,

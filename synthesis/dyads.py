@@ -44,11 +44,33 @@ DYAD_COLUMNS = (["family", "variant", "order"]
 
 def _frame_of(line: Line) -> np.ndarray:
     """A joint frame with Z along the line at its point."""
-    z = line.direction
-    a = np.array([1.0, 0, 0]) if abs(z[0]) < 0.9 else np.array([0, 1.0, 0])
-    x = a - (a @ z) * z
-    x /= np.linalg.norm(x)
-    return transform(np.stack([x, cross(z, x), z], -1), line.point)
+    return _frames_of([line])[0]
+
+
+def _frames_of(lines) -> np.ndarray:
+    """Joint frames (N, 4, 4) with Z along each line at its point, in one vectorised pass."""
+    z = np.array([ln.direction for ln in lines])
+    a = np.where((np.abs(z[:, 0]) < 0.9)[:, None], [1.0, 0, 0], [0, 1.0, 0])
+    x = a - np.sum(a * z, 1, keepdims=True) * z
+    x /= np.linalg.norm(x, axis=1, keepdims=True)
+    return transform(np.stack([x, cross(z, x), z], -1), np.array([ln.point for ln in lines]))
+
+
+def _hang_chains(m: Mechanism, chains, n_links: int):
+    """Hang every chain (types, lines, ...) from the ground of ``m``: links A{v}, B{v}[, body{v}],
+    joints v{v}j{k} as inputs; frames built in one pass (exact rotations, not re-validated)."""
+    frames = _frames_of([ln for c in chains for ln in c[1][:n_links]])
+    f = 0
+    for v, chain in enumerate(chains):
+        types = chain[0]
+        links = ["ground", f"A{v}", f"B{v}", f"body{v}"][:n_links + 1]
+        for name in links[1:]:
+            m.add_link(name)
+        for k in range(n_links):
+            m.add_joint(f"v{v}j{k + 1}", types[k], links[k], links[k + 1], at=frames[f],
+                        validate=False)
+            m.add_input(f"v{v}j{k + 1}")
+            f += 1
 
 
 def chain_mechanism(types, lines) -> Mechanism:
@@ -88,13 +110,7 @@ def verify_chains(chains, targets, length: float = 1.0) -> np.ndarray:
     if not chains:
         return np.zeros(0)
     m = Mechanism()
-    for v, (types, lines, _) in enumerate(chains):
-        links = ["ground", f"A{v}", f"B{v}", f"body{v}"]
-        for name in links[1:]:
-            m.add_link(name)
-        for k, (t, line) in enumerate(zip(types, lines)):
-            m.add_joint(f"v{v}j{k + 1}", t, links[k], links[k + 1], at=_frame_of(line))
-            m.add_input(f"v{v}j{k + 1}")
+    _hang_chains(m, chains, 3)
     x = np.concatenate([np.asarray(jv, float) for _, _, jv in chains], 1)
     pose = m.solve(x)
     link = pose._ks["link"] if pose._ks is not None else m.kinematic_state(pose.state)["link"]
@@ -114,13 +130,7 @@ def verify_points(chains, targets, length: float = 1.0) -> np.ndarray:
     if not chains:
         return np.zeros(0)
     m = Mechanism()
-    for v, (types, lines, _, _) in enumerate(chains):
-        links = ["ground", f"A{v}", f"B{v}"]
-        m.add_link(links[1])
-        m.add_link(links[2])
-        for k, (t, line) in enumerate(zip(types, lines)):
-            m.add_joint(f"v{v}j{k + 1}", t, links[k], links[k + 1], at=_frame_of(line))
-            m.add_input(f"v{v}j{k + 1}")
+    _hang_chains(m, chains, 2)
     pose = m.solve(np.concatenate([np.asarray(jv, float) for _, _, jv, _ in chains], 1))
     T = np.asarray(targets, float)
     err = []

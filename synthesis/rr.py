@@ -64,8 +64,11 @@ class RRLink:
 
 
 def _rot(line: Line, angle: float) -> np.ndarray:
-    from closure.frames import rotation
-    R = rotation(line.direction, angle)
+    """4x4 rotation by ``angle`` about ``line`` (Rodrigues; the direction is unit)."""
+    u = line.direction
+    c, s = np.cos(angle), np.sin(angle)
+    K = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    R = c * np.eye(3) + s * K + (1 - c) * np.outer(u, u)
     T = np.eye(4)
     T[:3, :3] = R
     T[:3, 3] = line.point - R @ line.point

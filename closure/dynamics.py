@@ -189,7 +189,7 @@ class Dynamics:
         mech = self.m
         B = len(pose)
         xd = np.broadcast_to(np.asarray(xd, float), (B, len(mech.inputs)))
-        ks = pose._ks or mech.kinematic_state(pose.state)
+        ks = pose.kinematics()
         first, second = analogs(mech, pose, ks=ks)
         if _first_out is not None:
             _first_out["first"], _first_out["first_of"] = first, pose

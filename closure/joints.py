@@ -31,11 +31,12 @@ solver never meets the Euler-angle singularity; Euler angles are output only.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 
 from .errors import MechanismError
-from .frames import euler_zxz, exp_so3, rot_y, rot_z, transform
+from .frames import euler_zxz, exp_so3, inverse, rot_y, rot_z, transform
 
 __all__ = ["Joint", "JOINT_KINDS"]
 
@@ -74,6 +75,16 @@ class Joint:
     frame_b: np.ndarray
     pitch: float = 0.0
     index: int = field(default=0, repr=False)
+
+    @cached_property
+    def frame_a_inv(self) -> np.ndarray:
+        """Inverse of ``frame_a`` (the frames are constant once the joint is added)."""
+        return inverse(self.frame_a)
+
+    @cached_property
+    def frame_b_inv(self) -> np.ndarray:
+        """Inverse of ``frame_b``."""
+        return inverse(self.frame_b)
 
     @property
     def nv(self) -> int:

@@ -72,7 +72,7 @@ def analogs(mech, pose, second: bool = True, ks=None):
         ``d²q_c / dx_i dx_j``.
     """
     t = mech.tree
-    ks = ks or pose._ks or mech.kinematic_state(pose.state)
+    ks = ks or pose.kinematics()
     J = mech.jacobian(ks)
     unknown = mech.unknown_columns()
     inp = mech.input_columns()
@@ -152,7 +152,7 @@ def point_analogs(mech, pose, link: str, xyz):
         raise MechanismError(f"point_analogs: xyz must be a 3-vector, got shape {p.shape}")
     t = mech.tree
     li = mech.links.index(link)
-    ks = pose._ks or mech.kinematic_state(pose.state)
+    ks = pose.kinematics()
     first, sec = analogs(mech, pose, ks=ks)
     T = ks["link"][:, li]
     x = T[:, :3, :3] @ p + T[:, :3, 3]

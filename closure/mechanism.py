@@ -149,7 +149,8 @@ class Mechanism:
         if fb is None:
             q0 = np.zeros(joint.nq)
             rot0 = np.eye(3) if kind == "S" else None
-            joint.frame_b = fa @ joint.matrix(q0[None], None if rot0 is None else rot0[None])[0]
+            # A(0) is the identity for every kind but the Hooke joint
+            joint.frame_b = fa @ joint.matrix(q0[None])[0] if kind == "U" else fa.copy()
         else:
             q0, rot0 = joint.coordinates_of(inverse(fa) @ fb)
             joint.frame_b = fb
@@ -289,7 +290,7 @@ class Mechanism:
     # ------------------------------------------------------------ state helpers
     def assembly(self):
         """The assembly pose as a one-element state ``(q (1, nq), rot (1, ns, 3, 3))``."""
-        t = self._tree if self._tree is not None else self._compile()
+        t = self.tree
         q = np.concatenate([q for q in self._q0]) if t.nq else np.zeros(0)
         rot = np.array([r for r in self._rot0 if r is not None]).reshape(t.ns, 3, 3)
         return q[None, :], rot[None]
@@ -362,10 +363,10 @@ class Mechanism:
         for li in t.order[1:]:
             j = self.joints[t.parent_joint[li]]
             if t.forward[li]:
-                rel = j.frame_a @ A[j.index] @ inverse(j.frame_b)
+                rel = j.frame_a @ A[j.index] @ j.frame_b_inv
                 link[:, li] = link[:, lidx[j.link_a]] @ rel
             else:
-                rel = j.frame_b @ inverse(A[j.index]) @ inverse(j.frame_a)
+                rel = j.frame_b @ inverse(A[j.index]) @ j.frame_a_inv
                 link[:, li] = link[:, lidx[j.link_b]] @ rel
         frame_a = np.empty((B, len(self.joints), 4, 4))
         for j in self.joints:
@@ -373,7 +374,7 @@ class Mechanism:
         r = np.empty((B, len(t.chords), 6))
         for k, ci in enumerate(t.chords):
             j = self.joints[ci]
-            G = frame_a[:, ci] @ A[ci] @ inverse(j.frame_b) @ inverse(link[:, lidx[j.link_b]])
+            G = frame_a[:, ci] @ A[ci] @ j.frame_b_inv @ inverse(link[:, lidx[j.link_b]])
             r[:, k] = log_se3(G)
         out = {"link": link, "frame_a": frame_a, "A": A, "r": r}
         if not twists:

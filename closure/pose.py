@@ -57,6 +57,15 @@ class Pose:
         """``(q, rot)``: the engine's state arrays."""
         return self.q, self.rot
 
+    def kinematics(self, twists: bool = True) -> dict:
+        """The engine's kinematic state of these poses (cached from the solver when it
+        holds what is asked; see :meth:`Mechanism.kinematic_state`)."""
+        ks = self._ks
+        if ks is None or (twists and "S" not in ks):
+            ks = self.mechanism.kinematic_state(self.state, twists=twists)
+            self._ks = ks
+        return ks
+
     @property
     def ok(self) -> np.ndarray:
         """Boolean mask of poses that closed to tolerance (status 0 or 1)."""
@@ -107,8 +116,7 @@ class Pose:
         m = self.mechanism
         if link not in m.links:
             raise MechanismError(f"no link named {link!r}; links: {', '.join(m.links)}")
-        ks = m.kinematic_state(self.state, twists=False)
-        return self._out(ks["link"][:, m.links.index(link)])
+        return self._out(self.kinematics(twists=False)["link"][:, m.links.index(link)])
 
     def point(self, link: str, xyz) -> np.ndarray:
         """World position ``(B, 3)`` of a point of ``link`` given by its ground coordinates

@@ -127,7 +127,7 @@ def newton(mech, state, opts: SolverOptions):
     its = np.zeros(B, dtype=int)
     done = np.zeros(B, dtype=bool)
     cond = np.ones(B)
-    ks_all = mech.kinematic_state((q, rot))
+    ks_all = mech.kinematic_state((q, rot), twists=unknown.size > 0)
     res = _norm(mech._scaled_residual(ks_all))
     prev = np.full(B, np.inf)
     if unknown.size == 0:                        # open chain driven in every joint

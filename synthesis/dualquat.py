@@ -8,9 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from closure.frames import log_so3
-
-__all__ = ["qmul", "qconj", "dq_mul", "dq_conj", "dq_from_matrix", "dq_to_matrix", "dq_inv"]
+__all__ = ["quat_from_rotation", "qmul", "qconj", "dq_mul", "dq_conj", "dq_from_matrix", "dq_to_matrix", "dq_inv"]
 
 
 def qmul(a, b):
@@ -55,11 +53,32 @@ def dq_inv(a):
     return np.concatenate([ri, -qmul(qmul(ri, d), ri)])
 
 
+def quat_from_rotation(R) -> np.ndarray:
+    """Unit quaternion (w, x, y, z) of a rotation matrix (Shepperd's method: the largest of
+    the four squared components is taken first, so it is accurate at every angle)."""
+    R = np.asarray(R, float)
+    tr = R[0, 0] + R[1, 1] + R[2, 2]
+    k = int(np.argmax([tr, R[0, 0], R[1, 1], R[2, 2]]))
+    if k == 0:
+        w = 0.5 * np.sqrt(1 + tr)
+        q = [w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w),
+             (R[1, 0] - R[0, 1]) / (4 * w)]
+    else:
+        i = k - 1
+        j, l = (i + 1) % 3, (i + 2) % 3
+        v = 0.5 * np.sqrt(1 + R[i, i] - R[j, j] - R[l, l])
+        q = [0.0] * 4
+        q[0] = (R[l, j] - R[j, l]) / (4 * v)
+        q[1 + i] = v
+        q[1 + j] = (R[j, i] + R[i, j]) / (4 * v)
+        q[1 + l] = (R[l, i] + R[i, l]) / (4 * v)
+    q = np.array(q)
+    return q if q[0] >= 0 else -q
+
+
 def dq_from_matrix(T):
     T = np.asarray(T, float)
-    w = log_so3(T[:3, :3])
-    th = np.linalg.norm(w)
-    r = np.r_[np.cos(th / 2), (np.sin(th / 2) / th * w) if th > 1e-300 else 0.5 * w]
+    r = quat_from_rotation(T[:3, :3])
     d = 0.5 * qmul(np.r_[0.0, T[:3, 3]], r)
     return np.concatenate([r, d])
 

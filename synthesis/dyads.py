@@ -113,7 +113,7 @@ def verify_chains(chains, targets, length: float = 1.0) -> np.ndarray:
     _hang_chains(m, chains, 3)
     x = np.concatenate([np.asarray(jv, float) for _, _, jv in chains], 1)
     pose = m.solve(x)
-    link = pose._ks["link"] if pose._ks is not None else m.kinematic_state(pose.state)["link"]
+    link = pose.kinematics(twists=False)["link"]
     bodies = link[:, [m.links.index(f"body{v}") for v in range(len(chains))]]   # (P, V, 4, 4)
     rot, pos = _pose_errors(bodies, np.asarray(targets, float)[:, None], length)
     return np.maximum(rot.max(0), pos.max(0))

@@ -250,8 +250,9 @@ def _parameters(c1, c0, P2, P3):
 
 def _pose_error(A, B, length_scale=1.0):
     """Largest of the rotation error (rad) and the translation error (length)."""
-    from closure.frames import log_so3
-    rot = np.linalg.norm(log_so3(A[:3, :3].T @ B[:3, :3]))
+    # ‖R − I‖_F = 2√2 |sin(θ/2)|: accurate for small θ, which is what a residual measures
+    E = np.linalg.norm(A[:3, :3].T @ B[:3, :3] - np.eye(3))
+    rot = 2 * np.arcsin(min(1.0, E / (2 * np.sqrt(2))))
     return float(max(rot, np.abs(A[:3, 3] - B[:3, 3]).max()))
 
 
@@ -284,9 +285,10 @@ def rotation_axis_between(m3, q3, m4, q4):
     if np.linalg.norm(a) < 1e-12:
         raise SynthesisError("axis 1: axis 3 is parallel to the rotation axis")
     ang = float(np.arctan2(cross(a, b) @ L, a @ b))
-    from closure.frames import rotation
-    R = rotation(L, ang)
-    # (I − R) P = Q4 − R Q3, minimum-norm P (the foot from the origin)
-    P = np.linalg.lstsq(np.eye(3) - R, q4 - R @ q3, rcond=None)[0]
+    if abs(np.sin(ang / 2)) < 1e-12:
+        raise SynthesisError("axis 1: axis 3 is not turned between the two positions")
+    # the centre of the plane rotation by ang that takes Q3 to Q4 (Q4 − Q3 ⊥ L):
+    # midpoint + ½ cot(ang/2) L × (Q4 − Q3); then the foot from the origin
+    P = 0.5 * (q3 + q4) + 0.5 / np.tan(ang / 2) * cross(L, dq)
     P = P - (P @ L) * L
-    return Line(L, P), ang
+    return Line._exact(L, P), ang

@@ -47,10 +47,18 @@ class Line:
             raise SynthesisError(f"point: expected a finite 3-vector, got {self.point!r}")
         object.__setattr__(self, "point", p)
 
+    @classmethod
+    def _exact(cls, direction, point) -> "Line":
+        """A line from a direction already of unit length (internal: skips validation)."""
+        ln = object.__new__(cls)
+        object.__setattr__(ln, "direction", direction)
+        object.__setattr__(ln, "point", point)
+        return ln
+
     def transformed(self, T) -> "Line":
         """The line moved by the 4x4 transform ``T`` (point moved, not re-canonicalised)."""
         T = np.asarray(T, float)
-        return Line(T[:3, :3] @ self.direction, T[:3, :3] @ self.point + T[:3, 3])
+        return Line._exact(T[:3, :3] @ self.direction, T[:3, :3] @ self.point + T[:3, 3])
 
     def foot_from(self, x) -> np.ndarray:
         """The foot of the perpendicular from ``x`` to the line."""
@@ -62,8 +70,8 @@ class Line:
         (``previous=None``) or foot of the common normal with ``previous`` (the
         perpendicular foot of previous's point when the lines are parallel)."""
         if previous is None:
-            return Line(self.direction, self.foot_from(np.zeros(3)))
-        return Line(self.direction, common_normal(previous, self)[1])
+            return Line._exact(self.direction, self.foot_from(np.zeros(3)))
+        return Line._exact(self.direction, common_normal(previous, self)[1])
 
     def distance_to(self, other: "Line") -> float:
         """Shortest distance between the two lines."""

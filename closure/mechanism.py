@@ -40,6 +40,8 @@ class _Tree:
     ns: int
     length_cols: np.ndarray  # velocity coordinates that are lengths (P, C slide)
     scale: float            # characteristic length of the mechanism
+    joint_link_a: np.ndarray  # (njoints,) index of each joint's link a
+    frames_a: np.ndarray      # (njoints, 4, 4) the joints' frames on link a
 
 
 class Mechanism:
@@ -256,7 +258,9 @@ class Mechanism:
             scale = 1.0
         return _Tree(tuple(self.links), tuple(parent), tuple(forward), tuple(order), chords,
                      sign, loop, tuple(v_off), tuple(q_off), tuple(s_idx), nv, nq, ns,
-                     np.array(length_cols, dtype=int), scale)
+                     np.array(length_cols, dtype=int), scale,
+                     np.array([lidx[j.link_a] for j in self.joints]),
+                     np.array([j.frame_a for j in self.joints]))
 
     def _check_mobility(self) -> None:
         t = self._tree
@@ -352,11 +356,7 @@ class Mechanism:
         t = self.tree if self._tree is not None else self._compile()
         q, rot = state
         B = q.shape[0]
-        A = []
-        for j in self.joints:
-            qj = q[:, t.q_offset[j.index]:t.q_offset[j.index] + j.nq]
-            rj = rot[:, t.s_index[j.index]] if j.kind == "S" else None
-            A.append(j.matrix(qj, rj))
+        A = self._joint_matrices(q, rot)
         lidx = {n: i for i, n in enumerate(t.links)}
         link = np.empty((B, len(t.links), 4, 4))
         link[:, 0] = np.eye(4)
@@ -368,9 +368,7 @@ class Mechanism:
             else:
                 rel = j.frame_b @ inverse(A[j.index]) @ j.frame_a_inv
                 link[:, li] = link[:, lidx[j.link_b]] @ rel
-        frame_a = np.empty((B, len(self.joints), 4, 4))
-        for j in self.joints:
-            frame_a[:, j.index] = link[:, lidx[j.link_a]] @ j.frame_a
+        frame_a = link[:, t.joint_link_a] @ t.frames_a
         r = np.empty((B, len(t.chords), 6))
         for k, ci in enumerate(t.chords):
             j = self.joints[ci]
@@ -392,6 +390,32 @@ class Mechanism:
                 deps.append(tuple(t.v_offset[j.index] + d for d in dep))
         out.update(S=S, carrier=carrier, deps=deps)
         return out
+
+    def _joint_matrices(self, q, rot) -> list:
+        """A(q) of every joint, one vectorised call per joint kind (helical joints, whose
+        pitch differs, one by one)."""
+        t = self.tree if self._tree is not None else self._compile()
+        B = q.shape[0]
+        A = [None] * len(self.joints)
+        groups: dict[str, list] = {}
+        for j in self.joints:
+            groups.setdefault("H" if j.kind == "H" else j.kind, []).append(j)
+        for kind, js in groups.items():
+            if kind == "H":
+                for j in js:
+                    A[j.index] = j.matrix(q[:, t.q_offset[j.index]:t.q_offset[j.index] + 1])
+                continue
+            if kind == "S":
+                mats = np.zeros((B, len(js), 4, 4))
+                mats[..., :3, :3] = rot[:, [t.s_index[j.index] for j in js]]
+                mats[..., 3, 3] = 1.0
+            else:
+                nq = js[0].nq
+                cols = np.array([t.q_offset[j.index] for j in js])[:, None] + np.arange(nq)
+                mats = js[0].matrix(q[:, cols].reshape(-1, nq)).reshape(B, len(js), 4, 4)
+            for k, j in enumerate(js):
+                A[j.index] = mats[:, k]
+        return A
 
     def jacobian(self, ks) -> np.ndarray:
         """Loop-closure Jacobian ``(B, 6·nloops, nv)`` in world twists ``(v, ω)``."""

@@ -303,12 +303,20 @@ class Hexapod:
         (the caller flags singular rows).  ``frame``: None (base origin) or "platform".
         ``cond=False`` skips the singular values (cond is then None)."""
         T = self._pose(T)
-        if T.shape[0] > self._BLOCK:
-            # cache blocking: the temporaries of a block stay in cache (same arithmetic)
-            parts = [self.stiffness_batch(T[i:i + self._BLOCK], frame, cond)
-                     for i in range(0, T.shape[0], self._BLOCK)]
-            Ks = np.concatenate([p[0] for p in parts])
-            return Ks, (np.concatenate([p[1] for p in parts]) if cond else None)
+        if frame not in (None, "platform"):
+            raise StiffnessError(f"frame: expected None or 'platform' for a batch, got {frame!r}")
+        B = T.shape[0]
+        K = np.empty((B, 6, 6))
+        c = np.empty(B) if cond else None
+        # cache blocking: the temporaries of a block stay in cache (same arithmetic)
+        for i in range(0, B, self._BLOCK):
+            sl = slice(i, i + self._BLOCK)
+            K[sl], ci = self._stiffness_block(T[sl], frame, cond)
+            if cond:
+                c[sl] = ci
+        return K, c
+
+    def _stiffness_block(self, T, frame, cond):
         P = self._leg_matrix(T)
         c = None
         if cond:
@@ -324,6 +332,4 @@ class Hexapod:
             n = np.swapaxes(P[:, :3], -1, -2)
             m = np.swapaxes(P[:, 3:], -1, -2) - np.cross(o, n)
             P = np.concatenate([Rt @ np.swapaxes(n, -1, -2), Rt @ np.swapaxes(m, -1, -2)], 1)
-        elif frame is not None:
-            raise StiffnessError(f"frame: expected None or 'platform' for a batch, got {frame!r}")
         return stiffness_matrix(P, self.k), c

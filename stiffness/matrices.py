@@ -54,7 +54,8 @@ def stiffness_matrix(P, k) -> np.ndarray:
         raise StiffnessError(f"k: expected {P.shape[-1]} stiffnesses, got shape {k.shape}")
     if not np.all(np.isfinite(k)) or np.any(k < 0):
         raise StiffnessError("k: stiffnesses must be finite and non-negative (N/m)")
-    return (P * k[..., None, :]) @ np.swapaxes(P, -1, -2)
+    Pk = P * k[..., None, :]
+    return np.matmul(Pk, np.swapaxes(P, -1, -2))
 
 
 def transform_stiffness(K, R, p) -> np.ndarray:

@@ -16,6 +16,7 @@ they disagree).
 """
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -67,19 +68,22 @@ def interval_sigma(d2f, x0, x1, y0, y1, gamma):
     return np.sqrt(gamma * np.maximum(hi, 0.0))
 
 
-class TransferFunction:
+class TransferFunction(ABC):
     """Interface shared by exact and surrogate transfer functions of a 1-DOF loop:
     ``position(x)``, ``velocity(x)`` (first analog) and ``acceleration(x)`` (second
     analog), each vectorised over ``x``."""
 
-    def position(self, x):  # pragma: no cover - interface
-        raise NotImplementedError
+    @abstractmethod
+    def position(self, x):
+        """The output f(x)."""
 
-    def velocity(self, x):  # pragma: no cover - interface
-        raise NotImplementedError
+    @abstractmethod
+    def velocity(self, x):
+        """The first analog f'(x)."""
 
-    def acceleration(self, x):  # pragma: no cover - interface
-        raise NotImplementedError
+    @abstractmethod
+    def acceleration(self, x):
+        """The second analog f''(x)."""
 
     def force(self, x, xd, xdd, mass_moment):
         """Drive force of seed 004 (5): ``Q = Ψ · I · q̈_out`` with ``Ψ = f'(x)`` and

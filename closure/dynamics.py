@@ -353,11 +353,12 @@ class Dynamics:
             p = pose_at(x)
             M, h, Q, qd = self.terms(p, xd[None], t, _first_out=cache)
             F = Q[0] - h[0]
-            if drive is not None:
-                F = F + np.asarray(drive(t, x, xd), float)
+            tau = np.asarray(drive(t, x, xd), float) if drive is not None else None
+            if tau is not None:
+                F = F + tau
             xdd = np.linalg.solve(M[0], F)
             diss, work = self._dissipation_and_work(p, qd, t)
-            dw = work[0] + (float(np.asarray(drive(t, x, xd), float) @ xd) if drive else 0.0)
+            dw = work[0] + (float(tau @ xd) if tau is not None else 0.0)
             return np.r_[xd, xdd, diss[0], dw]
 
         import scipy.integrate as si

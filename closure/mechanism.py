@@ -40,6 +40,7 @@ class _Tree:
     ns: int
     length_cols: np.ndarray  # velocity coordinates that are lengths (P, C slide)
     scale: float            # characteristic length of the mechanism
+    link_index: dict          # link name -> index
     joint_link_a: np.ndarray  # (njoints,) index of each joint's link a
     frames_a: np.ndarray      # (njoints, 4, 4) the joints' frames on link a
 
@@ -258,7 +259,7 @@ class Mechanism:
             scale = 1.0
         return _Tree(tuple(self.links), tuple(parent), tuple(forward), tuple(order), chords,
                      sign, loop, tuple(v_off), tuple(q_off), tuple(s_idx), nv, nq, ns,
-                     np.array(length_cols, dtype=int), scale,
+                     np.array(length_cols, dtype=int), scale, lidx,
                      np.array([lidx[j.link_a] for j in self.joints]),
                      np.array([j.frame_a for j in self.joints]))
 
@@ -353,11 +354,11 @@ class Mechanism:
         (per column: the column's carrying link index and the deps), and the
         loop residual ``r`` (B, nloops, 6).
         """
-        t = self.tree if self._tree is not None else self._compile()
+        t = self.tree
         q, rot = state
         B = q.shape[0]
         A = self._joint_matrices(q, rot)
-        lidx = {n: i for i, n in enumerate(t.links)}
+        lidx = t.link_index
         link = np.empty((B, len(t.links), 4, 4))
         link[:, 0] = np.eye(4)
         for li in t.order[1:]:
@@ -394,7 +395,7 @@ class Mechanism:
     def _joint_matrices(self, q, rot) -> list:
         """A(q) of every joint, one vectorised call per joint kind (helical joints, whose
         pitch differs, one by one)."""
-        t = self.tree if self._tree is not None else self._compile()
+        t = self.tree
         B = q.shape[0]
         A = [None] * len(self.joints)
         groups: dict[str, list] = {}

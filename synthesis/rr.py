@@ -161,12 +161,10 @@ def rr_links(s12: Screw, s13: Screw, *, tol: float = 1e-9) -> list[RRLink]:
         raise SynthesisError(f"rr_links: degenerate positions, {what}; rotation angles "
                              f"{w2:.3g}, {w3:.3g} rad")
     # the conic  a x0 x2 + b x0 x3 + c x2 x3 = 0  with P0 at t = ∞ (see the module notes)
-    c2 = np.r_[1.0, np.zeros(7)] * (cc * b / a)
     c1 = -cc * P0 - b * P2 + a * P3
     c0 = a * P2
     lead = cc * b / a
     c1, c0 = c1 / lead, c0 / lead
-    del c2
     # norm polynomial N(t) = C(t) C̃(t): real quartic (its dual part vanishes)
     one = np.r_[1.0, np.zeros(7)]
     coeffs = [one, c1, c0]                     # t², t, 1

@@ -30,6 +30,7 @@ from .errors import ClosureError, MechanismError
 from .frames import cross, skew
 from .kinematics import _bias, analogs, link_twists
 from .pose import Pose
+from .solver import predict
 
 __all__ = ["Body", "Dynamics", "pseudo_inertia"]
 
@@ -333,11 +334,7 @@ class Dynamics:
             g = cache["pose"]
             if cache.get("first_of") is not g:
                 cache["first"], cache["first_of"] = analogs(mech, g, second=False)[0], g
-            dv = cache["first"][0] @ (x - g.inputs[0])
-            from .solver import _apply
-            dvs = dv.copy()
-            dvs[mech.tree.length_cols] /= mech.tree.scale
-            q, rot = _apply(mech, g.state, dvs[None])
+            (q, rot), _ = predict(mech, g, x, cache["first"][0])
             guess = Pose(mech, x[None], q, rot, g.residual, g.iterations, g.condition, g.status)
             p = mech.solve(x, guess=guess, options=opts, raise_on_failure=False)
             if p.status[0] >= 2:

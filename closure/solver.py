@@ -18,7 +18,7 @@ from .errors import ClosureError, MechanismError
 from .frames import log_so3
 from .pose import Pose
 
-__all__ = ["solve", "sweep", "SolverOptions"]
+__all__ = ["solve", "sweep", "predict", "SolverOptions"]
 
 
 class SolverOptions:
@@ -27,7 +27,8 @@ class SolverOptions:
     Parameters
     ----------
     xtol : float
-        Convergence: the largest (dimensionless) Newton step ≤ ``xtol``.
+        Convergence when the residual no longer falls: the largest (dimensionless)
+        Newton step ≤ ``xtol``.  A residual at rounding level (1e-14) converges at once.
     rtol : float
         A converged pose with residual above ``rtol`` did not close ("no assembly").
     maxiter : int
@@ -113,9 +114,10 @@ def newton(mech, state, opts: SolverOptions):
 
     Each iteration evaluates the kinematic state once per line-search trial;
     the accepted trial's state serves the next iteration's Jacobian.  A pose is
-    converged when the Newton step computed at it is at most ``xtol`` and its
-    residual is at rounding level (or stopped falling); the residual and
-    condition number reported are those of the state returned.
+    converged when its residual is at rounding level (≤ 1e-14), or when the
+    Newton step computed at it is at most ``xtol`` and the residual stopped
+    falling; the residual and condition number reported are those of the state
+    returned.
 
     Returns ``(state, residual, iterations, condition, converged, ks)`` where
     ``ks`` is the kinematic state of the returned poses.
@@ -182,6 +184,21 @@ def newton(mech, state, opts: SolverOptions):
         J = mech._scaled_jacobian(_ks_take(ks_all, left))[:, :, unknown]
         cond[left] = _pinv_parts(J, rank)[3]
     return (q, rot), res, its, cond, done, ks_all
+
+
+def predict(mech, pose: Pose, x_new, first=None):
+    """First-order predictor: ``pose`` (one pose) moved along its first analogs to the
+    inputs ``x_new``.  Returns the predicted state ``(q, rot)`` with the inputs set, and
+    the dimensionless step of every velocity coordinate ``(nv,)``."""
+    from .kinematics import analogs  # local: kinematics imports solver helpers
+    if first is None:
+        first = analogs(mech, pose, second=False)[0][0]
+    x_new = np.asarray(x_new, float)
+    dv = first @ (x_new - pose.inputs[0])
+    dv[mech.tree.length_cols] /= mech.tree.scale
+    q, rot = _apply(mech, pose.state, dv[None])
+    q[:, mech.input_q_columns()] = x_new
+    return (q, rot), dv
 
 
 def _norm(r):
@@ -286,12 +303,11 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
 
     opts = options or SolverOptions()
     x, _ = _inputs_array(mech, values)
-    qcols = mech.input_q_columns()
     start = solve(mech, x[0], guess, options=opts, raise_on_failure=False)
     rows_q, rows_rot = [start.q[0]], [start.rot[0]]
     res, cond, its, status = [start.residual[0]], [start.condition[0]], [start.iterations[0]], \
         ["ok" if start.status[0] == 0 else start.status_text[0]]
-    cur = start
+    cur, first_of = start, None
     unknown = mech.unknown_columns()
     stopped = start.status[0] >= 2
     for i in range(1, x.shape[0]):
@@ -302,16 +318,11 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
         halvings = 0
         while frac_done < 1.0:
             h = min(h, 1.0 - frac_done)
-            x0 = cur.inputs[0]
             xt = x[i - 1] + (frac_done + h) * (target - x[i - 1])
-            first = analogs(mech, cur, second=False)[0][0]          # (nv, ni)
-            dv = first @ (xt - x0)
-            dv_s = dv.copy()
-            dv_s[mech.tree.length_cols] /= mech.tree.scale
-            pred = _apply(mech, cur.state, dv_s[None])
-            q = pred[0].copy()
-            q[:, qcols] = xt
-            st, r, it, c, conv, ks = newton(mech, (q, pred[1]), opts)
+            if first_of is not cur:                      # analogs once per accepted pose
+                first, first_of = analogs(mech, cur, second=False)[0][0], cur
+            pred, dv_s = predict(mech, cur, xt, first)
+            st, r, it, c, conv, ks = newton(mech, pred, opts)
             jump = np.max(np.abs(_coord_distance(mech, st, pred)))
             step_len = np.max(np.abs(dv_s[unknown])) if unknown.size else 0.0
             okay = conv[0] and r[0] <= opts.rtol and c[0] <= opts.cond_limit and \
@@ -332,9 +343,7 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
             rows_q.append(cur.q[0])
             rows_rot.append(cur.rot[0])
             res.append(cur.residual[0])
-            ks = mech.kinematic_state(cur.state)
-            J = mech._scaled_jacobian(ks)[:, :, unknown]
-            cond.append(_pinv_parts(J, _expected_rank(mech))[3][0])
+            cond.append(cur.condition[0])
             its.append(0)
             status.append(st_name)
             reached_at = cur.inputs[0]

@@ -5,8 +5,8 @@ import numpy as np
 import pandas as pd
 
 from closure import exp_so3
-from stiffness import (Hexapod, StiffnessError, rotational_compliance_eigenvalues,
-                       screw_eigenvalues, translational_eigenvalues)
+from stiffness import Hexapod, StiffnessError, stiffness_indices
+from stiffness.report import _fmt_value
 
 from .output import Outputs, Report
 from .study import Study
@@ -53,17 +53,10 @@ def run(study: Study, out: Outputs, progress) -> dict:
              f"cond(P) = {res.cond_P:.4g}.")
     rep.heading("Stiffness matrix (blocks N/m, N/rad, N·m/rad)")
     rep.table(pd.DataFrame(K, columns=["δx", "δy", "δz", "θx", "θy", "θz"]), "{:.4e}")
-    kt = translational_eigenvalues(K)
-    cr = rotational_compliance_eigenvalues(K)
-    se = screw_eigenvalues(K).real
-    idx = pd.DataFrame({"index": ["translational eigenvalues", "rotational compliance eigenvalues",
-                                  "screw eigenvalues (frame-invariant)"],
-                        "values": [np.array2string(kt, precision=5),
-                                   np.array2string(cr, precision=5),
-                                   np.array2string(se, precision=5)],
-                        "unit": ["N/m", "rad/(N·m)", "N"]})
+    idx = stiffness_indices(K)
+    kt = idx.value[0]
     rep.heading("Indices")
-    rep.table(idx)
+    rep.table(idx.assign(value=idx.value.map(_fmt_value)))
     summary = {"command": "stiffness", "frame": frame, "cond_P": float(res.cond_P),
                "kt_min": float(kt[0]), "kt_max": float(kt[-1])}
     if wrench is not None:

@@ -10,7 +10,8 @@ skew, plucker, wrench_transform (T), twist_transform (T*), shift_wrench (S),
 shift_twist (S*), rotate_six (H), their inverses, compose_frames,
 to_moment_first / from_moment_first
 spring_stiffness (formula 2), stiffness_matrix (P diag(k) Pᵀ), transform_stiffness,
-blocks, screw_eigenvalues, translational_eigenvalues, rotational_compliance_eigenvalues
+blocks, screw_eigenvalues, translational_eigenvalues, rotational_compliance_eigenvalues,
+stiffness_indices       the report's indices with their units, as a table
 Hexapod                 legs, P, stiffness, compliance, leg forces, loaded stiffness, maps
 design_leg_stiffness    convex (LMI) allocation of leg stiffness with cvxpy
 report                  Markdown + CSV stiffness report
@@ -19,7 +20,8 @@ from .design import design_leg_stiffness
 from .errors import SingularPoseWarning, StiffnessError
 from .hexapod import Hexapod, StiffnessResult
 from .matrices import (blocks, from_blocks, rotational_compliance_eigenvalues, screw_eigenvalues,
-                       spring_stiffness, stiffness_matrix, transform_blocks, transform_stiffness,
+                       spring_stiffness, stiffness_indices, stiffness_matrix, transform_blocks,
+                       transform_stiffness,
                        translational_eigenvalues)
 from .plot import plot_map
 from .report import report
@@ -31,7 +33,7 @@ __all__ = [
     "skew", "plucker", "wrench_transform", "twist_transform", "wrench_transform_inverse",
     "twist_transform_inverse", "shift_wrench", "shift_twist", "rotate_six", "compose_frames",
     "to_moment_first", "from_moment_first", "spring_stiffness", "stiffness_matrix",
-    "transform_stiffness", "transform_blocks", "blocks", "from_blocks", "screw_eigenvalues",
+    "transform_stiffness", "transform_blocks", "blocks", "stiffness_indices", "from_blocks", "screw_eigenvalues",
     "translational_eigenvalues", "rotational_compliance_eigenvalues", "Hexapod",
     "StiffnessResult", "design_leg_stiffness", "report", "plot_map", "StiffnessError", "SingularPoseWarning",
 ]

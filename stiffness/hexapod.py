@@ -135,9 +135,13 @@ class Hexapod:
 
     def cond_P(self, pose) -> np.ndarray:
         """Condition number of the dimensionless P (moment rows / platform radius)."""
-        P = self.leg_matrix(pose).copy()
-        P[..., 3:, :] /= self.radius
-        s = np.linalg.svd(P, compute_uv=False)
+        return self._cond(self.leg_matrix(pose))
+
+    def _cond(self, P) -> np.ndarray:
+        """cond of a leg matrix ``(..., 6, n)`` made dimensionless by the platform radius."""
+        Ps = P.copy()
+        Ps[..., 3:, :] /= self.radius
+        s = np.linalg.svd(Ps, compute_uv=False)
         with np.errstate(divide="ignore"):
             return np.where(s[..., -1] > 0, s[..., 0] / s[..., -1], np.inf)
 
@@ -181,7 +185,7 @@ class Hexapod:
         """
         T = self._pose(pose)
         P = self.leg_matrix(T)
-        c = self.cond_P(T)
+        c = self._cond(P)
         self._warn(c, "stiffness")
         K = stiffness_matrix(P, self.k)
         R, p = self._frame(frame, T)
@@ -197,7 +201,7 @@ class Hexapod:
         if P.shape[-1] != 6:
             return np.linalg.inv(stiffness_matrix(P, self.k))
         Pi = np.linalg.inv(P)
-        self._warn(self.cond_P(pose), "compliance")
+        self._warn(self._cond(P), "compliance")
         return np.swapaxes(Pi, -1, -2) @ (Pi / self.k[:, None])
 
     def leg_forces(self, pose, wrench) -> np.ndarray:
@@ -207,7 +211,7 @@ class Hexapod:
         if W.shape[-1:] != (6,):
             raise StiffnessError(f"wrench: expected a 6-vector (f, m), got shape {W.shape}")
         P = self.leg_matrix(self._pose(pose))
-        self._warn(self.cond_P(pose), "leg_forces")
+        self._warn(self._cond(P), "leg_forces")
         if P.shape[-1] == 6:
             return np.linalg.solve(P, W[..., None])[..., 0]
         return (np.linalg.pinv(P) @ W[..., None])[..., 0]
@@ -237,7 +241,8 @@ class Hexapod:
         tau = self.leg_forces(T, wrench)
         L, u = self.legs(T)
         r = self.platform_points_world(T)
-        K = stiffness_matrix(self.leg_matrix(T), self.k)
+        P = self.leg_matrix(T)
+        K = stiffness_matrix(P, self.k)
         G = np.zeros((6, 6))
         for i in range(self.base.shape[0]):
             # dr = δ + θ × r = [I, −[r]] Δ ;  du = (I − u uᵀ) dr / L
@@ -247,7 +252,7 @@ class Hexapod:
             G += tau[i] * dN
         # held wrench about the carried reference point: m' = m − δ × f adds [f] δ
         G[3:, :3] += skew(np.asarray(wrench, dtype=float)[:3])
-        return StiffnessResult(K + G, np.zeros(3), np.eye(3), True, float(self.cond_P(T)))
+        return StiffnessResult(K + G, np.zeros(3), np.eye(3), True, float(self._cond(P)))
 
     # ---------------------------------------------------------------- maps
     def map(self, positions, rotations=None, frame: str | None = "platform") -> pd.DataFrame:
@@ -318,13 +323,7 @@ class Hexapod:
 
     def _stiffness_block(self, T, frame, cond):
         P = self._leg_matrix(T)
-        c = None
-        if cond:
-            Ps = P.copy()
-            Ps[:, 3:] /= self.radius
-            s = np.linalg.svd(Ps, compute_uv=False)
-            with np.errstate(divide="ignore"):
-                c = np.where(s[:, -1] > 0, s[:, 0] / s[:, -1], np.inf)
+        c = self._cond(P) if cond else None
         if frame == "platform":
             # shift the Plücker moments to the platform origin, rotate into its axes
             Rt = np.swapaxes(T[:, :3, :3], -1, -2)

@@ -8,6 +8,7 @@ rad/(N·m).
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import scipy.linalg
 
 from .errors import StiffnessError
@@ -15,7 +16,7 @@ from .sixvector import SWAP, _vec3, plucker, wrench_transform
 
 __all__ = ["spring_stiffness", "stiffness_matrix", "transform_stiffness", "blocks",
            "from_blocks", "transform_blocks", "screw_eigenvalues", "translational_eigenvalues",
-           "rotational_compliance_eigenvalues"]
+           "rotational_compliance_eigenvalues", "stiffness_indices"]
 
 
 def spring_stiffness(k, directions, points) -> np.ndarray:
@@ -127,6 +128,19 @@ def screw_eigenvalues(K) -> np.ndarray:
         raise StiffnessError(f"screw_eigenvalues: expected one 6x6 matrix, got {K.shape}")
     lam = scipy.linalg.eigvals(K, SWAP)
     return lam[np.argsort(lam.real)]
+
+
+def stiffness_indices(K) -> pd.DataFrame:
+    """The indices a report shows, one row each, never mixing units: ``index``,
+    ``value`` (array or number) and ``unit``."""
+    K = np.asarray(K, dtype=float)
+    return pd.DataFrame({
+        "index": ["eigenvalues of the translational block K_n",
+                  "eigenvalues of the rotational compliance",
+                  "screw eigenvalues K t = λ Δ t (frame-invariant)", "‖K_c‖ (coupling)"],
+        "value": [translational_eigenvalues(K), rotational_compliance_eigenvalues(K),
+                  screw_eigenvalues(K).real, float(np.linalg.norm(K[:3, 3:]))],
+        "unit": ["N/m", "rad/(N·m)", "N", "N/rad"]})
 
 
 def _check_points(a, name, n=None):

@@ -9,8 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .matrices import (blocks, rotational_compliance_eigenvalues, screw_eigenvalues,
-                       translational_eigenvalues)
+from .matrices import stiffness_indices
 
 __all__ = ["report", "write_atomic"]
 
@@ -44,6 +43,11 @@ def _save_figure(fig, path) -> None:
         fig.savefig(tmp)
 
 
+def _fmt_value(v) -> str:
+    """An index value as text: arrays to five digits, numbers to five significant ones."""
+    return np.array2string(v, precision=5) if isinstance(v, np.ndarray) else f"{v:.5g}"
+
+
 def _matrix_md(M, fmt="{: .4e}"):
     rows = ["| " + " | ".join(fmt.format(v) for v in row) + " |" for row in M]
     head = "| " + " | ".join(["δx", "δy", "δz", "θx", "θy", "θz"][:M.shape[1]]) + " |"
@@ -67,7 +71,6 @@ def report(hexapod, pose, *, frame=None, wrench=None, positions=None, rotations=
     T = hexapod._pose(pose)
     res = hexapod.stiffness(T, frame=frame)
     K = res.K
-    Kn, Kc, Kk = blocks(K)
     lines = [f"# {title}", "",
              "Conventions: wrench W = (f, m) in N, N·m; displacement Δ = (δ, θ) in m, rad "
              "(seed 003); K is the unloaded (congruence) stiffness P Kθ Pᵀ.", "",
@@ -82,14 +85,10 @@ def report(hexapod, pose, *, frame=None, wrench=None, positions=None, rotations=
              "Blocks: translational K_n (N/m), coupling K_c (N/rad), torsional K_k (N·m/rad).", "",
              _matrix_md(K), "",
              "## Indices", "",
-             "| index | values | unit |", "|---|---|---|",
-             f"| eigenvalues of K_n | {np.array2string(translational_eigenvalues(K), precision=5)} "
-             "| N/m |",
-             f"| eigenvalues of the rotational compliance | "
-             f"{np.array2string(rotational_compliance_eigenvalues(K), precision=5)} | rad/(N·m) |",
-             f"| screw eigenvalues K t = λ Δ t (frame-invariant) | "
-             f"{np.array2string(screw_eigenvalues(K).real, precision=5)} | N |",
-             f"| ‖K_c‖ (coupling) | {np.linalg.norm(Kc):.5g} | N/rad |", ""]
+             "| index | values | unit |", "|---|---|---|"]
+    lines += [f"| {row.index} | {_fmt_value(row.value)} | {row.unit} |"
+              for row in stiffness_indices(K).itertuples()]
+    lines.append("")
     csv = {"stiffness.csv": pd.DataFrame(K, columns=["dx", "dy", "dz", "tx", "ty", "tz"],
                                          index=["fx", "fy", "fz", "mx", "my", "mz"])}
     if wrench is not None:

@@ -184,6 +184,8 @@ class Dynamics:
         return Lam, c, m
 
     def terms(self, pose: Pose, xd, t=0.0, _first_out=None):
+        # _first_out (internal, simulate): receives the first analogs of ``pose`` and the
+        # powers of dampers ("dissipated") and given joint forces ("work"), (B,) each
         """M (B, n, n), h (B, n), applied forces Q (B, n) and the coordinate rates (B, nv).
 
         ``Q`` holds gravity, springs, dampers and given joint forces (not drives)."""
@@ -194,6 +196,7 @@ class Dynamics:
         first, second = analogs(mech, pose, ks=ks)
         if _first_out is not None:
             _first_out["first"], _first_out["first_of"] = first, pose
+            _first_out["dissipated"], _first_out["work"] = np.zeros(B), np.zeros(B)
         n = first.shape[2]
         qd = np.einsum("bci,bi->bc", first, xd)
         M = np.zeros((B, n, n))
@@ -227,6 +230,12 @@ class Dynamics:
             else:
                 tau = np.broadcast_to(np.asarray(e.value(t, q, qd[:, e.column]), float), (B,))
             Q += first[:, e.column, :] * tau[:, None]
+            if _first_out is not None:        # the element powers, for the energy balance
+                p = tau * qd[:, e.column]
+                if e.kind == "damper":
+                    _first_out["dissipated"] -= p
+                elif e.kind == "force":
+                    _first_out["work"] += p
         return M, h, Q, qd
 
     def energy(self, pose: Pose, xd) -> dict:
@@ -243,17 +252,6 @@ class Dynamics:
                  for e in self.elements if e.kind == "spring") + np.zeros(len(pose))
         return {"kinetic": T, "gravity": Vg, "spring": Vs, "total": T + Vg + Vs}
 
-    def _dissipation_and_work(self, pose, qd, t):
-        """Power dissipated by dampers and power of given joint forces (W), (B,)."""
-        diss = np.zeros(len(pose))
-        work = np.zeros(len(pose))
-        for e in self.elements:
-            if e.kind == "damper":
-                diss += e.value * qd[:, e.column] ** 2
-            elif e.kind == "force":
-                q = pose.q[:, e.qcolumn]
-                work += np.asarray(e.value(t, q, qd[:, e.column]), float) * qd[:, e.column]
-        return diss, work
 
     # ------------------------------------------------------------ inverse dynamics
     def inverse(self, t, x, xd=None, xdd=None) -> pd.DataFrame:
@@ -354,9 +352,8 @@ class Dynamics:
             if tau is not None:
                 F = F + tau
             xdd = np.linalg.solve(M[0], F)
-            diss, work = self._dissipation_and_work(p, qd, t)
-            dw = work[0] + (float(tau @ xd) if tau is not None else 0.0)
-            return np.r_[xd, xdd, diss[0], dw]
+            dw = cache["work"][0] + (float(tau @ xd) if tau is not None else 0.0)
+            return np.r_[xd, xdd, cache["dissipated"][0], dw]
 
         import scipy.integrate as si
         from scipy.integrate._ivp.ivp import METHODS

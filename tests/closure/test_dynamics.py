@@ -246,3 +246,12 @@ def test_stiff_method_and_dead_point_event():
     assert sol.status == 1                           # terminated by the dead-point event
     assert abs(0.5 + out.A.iloc[-1] - t_lim) < 1e-3
     assert out.condition.iloc[-1] > 1e6
+
+
+def test_given_joint_force_work_enters_the_energy_balance():
+    _, d = fourbar_model(GEOM, MASSES, 0.3)
+    d.add_force("A", lambda t, q, qd: 5.0 + 0 * q)           # a constant crank torque
+    d.add_damper("C", 0.5)
+    df = d.simulate((0, 1), [0.0], [0.0], t_eval=np.linspace(0, 1, 5), rtol=1e-11, atol=1e-12)
+    assert abs(df.work.iloc[-1]) > 1.0 and df.dissipated.iloc[-1] > 0.1
+    assert np.abs(df.balance).max() < 1e-8 * max(1.0, np.abs(df.energy).max())

@@ -145,12 +145,8 @@ def verify_chain(types, lines, joint_values, targets, length: float = 1.0) -> fl
     """Drive the synthesised chain through its joint values with the closure engine and
     return the largest pose error over all positions: rotation (rad) or translation
     divided by ``length`` (the positions' size)."""
-    m = chain_mechanism(types, lines)
-    pose = m.solve(np.asarray(joint_values, float))
-    body = pose.link_frame("body")
-    body = body[None] if body.ndim == 2 else body
-    rot, pos = _pose_errors(body, np.asarray(targets, float), length)
-    return float(max(rot.max(), pos.max()))
+    return float(verify_chains([(types, lines, np.atleast_2d(joint_values))], targets,
+                               length)[0])
 
 
 def _check_screws(screws, n, family):

@@ -85,10 +85,7 @@ def analogs(mech, pose, second: bool = True, ks=None):
     def solve_unknown(rhs_scaled):      # rhs (B, m, k) → (B, nu, k) dimensionless
         return np.einsum("bkn,bk,bmk,bmj->bnj", Vt, inv_s, U, rhs_scaled)
 
-    def row_scale(rhs):                  # world twist rows → dimensionless rows
-        r = rhs.reshape(B, -1, 6, rhs.shape[-1]).copy()
-        r[:, :, :3] /= L
-        return r.reshape(B, -1, rhs.shape[-1])
+    row_scale = mech._scaled_rows        # world twist rows → dimensionless rows
 
     col_scale = np.ones(t.nv)
     col_scale[t.length_cols] = L

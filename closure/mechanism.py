@@ -40,6 +40,7 @@ class _Tree:
     ns: int
     length_cols: np.ndarray  # velocity coordinates that are lengths (P, C slide)
     scale: float            # characteristic length of the mechanism
+    centre: np.ndarray      # (3,) centroid of the joint origins at assembly (m)
     link_index: dict          # link name -> index
     joint_link_a: np.ndarray  # (njoints,) index of each joint's link a
     frames_a: np.ndarray      # (njoints, 4, 4) the joints' frames on link a
@@ -73,9 +74,17 @@ class Mechanism:
     """
 
     def __init__(self, links=(), ground: str = "ground"):
-        self.ground = str(ground)
+        if isinstance(links, str):
+            raise MechanismError(f"links: expected an iterable of link names, got the string "
+                                 f"{links!r} (write [{links!r}] for one link)")
+        if not isinstance(ground, str) or not ground:
+            raise MechanismError(f"ground: expected a non-empty string, got {ground!r}")
+        self.ground = ground
         self.links: list[str] = [self.ground]
+        self._link_set = {self.ground}
         self.joints: list[Joint] = []
+        self._joint_by_name: dict[str, Joint] = {}
+        self._singular_assembly = False
         self.inputs: list[tuple[int, int]] = []
         self._q0: list[np.ndarray] = []
         self._rot0: list[np.ndarray | None] = []
@@ -89,9 +98,10 @@ class Mechanism:
         """Add a link (its frame is the ground frame at the assembly pose)."""
         if not isinstance(name, str) or not name:
             raise MechanismError(f"add_link: name must be a non-empty string, got {name!r}")
-        if name in self.links:
+        if name in self._link_set:
             raise MechanismError(f"add_link: link {name!r} already exists")
         self.links.append(name)
+        self._link_set.add(name)
         self._tree = None
 
     def add_joint(self, name: str, kind: str, link_a: str, link_b: str, at, *,
@@ -124,24 +134,32 @@ class Mechanism:
         """
         if not isinstance(name, str) or not name:
             raise MechanismError(f"add_joint: name must be a non-empty string, got {name!r}")
-        if any(j.name == name for j in self.joints):
+        if name in self._joint_by_name:
             raise MechanismError(f"add_joint: joint {name!r} already exists")
-        if kind not in JOINT_KINDS:
+        if not isinstance(kind, str) or kind not in JOINT_KINDS:
             raise MechanismError(f"joint {name!r}: kind {kind!r} unknown; expected one of "
                                  f"{', '.join(JOINT_KINDS)}")
         for field_, link in (("link_a", link_a), ("link_b", link_b)):
-            if link not in self.links:
+            if not isinstance(link, str) or link not in self._link_set:
                 raise MechanismError(f"joint {name!r}: {field_} {link!r} is not a link of this "
                                      f"mechanism; known links: {', '.join(self.links)}")
         if link_a == link_b:
             raise MechanismError(f"joint {name!r}: link_a and link_b are both {link_a!r}")
         if kind == "H":
-            if pitch is None or not np.isfinite(pitch):
+            if not isinstance(pitch, (int, float, np.integer, np.floating)) or \
+                    not np.isfinite(pitch):
                 raise MechanismError(f"joint {name!r}: a helical joint needs a finite pitch "
                                      "(length per radian)")
         elif pitch is not None:
             raise MechanismError(f"joint {name!r}: pitch is only for helical (H) joints")
-        at_arr = np.asarray(at, dtype=float)
+        try:
+            at_arr = np.asarray(at, dtype=float)
+        except (TypeError, ValueError):
+            raise MechanismError(f"joint {name!r}: at must be a 4x4 transform or a pair of them, "
+                                 f"got {type(at).__name__}") from None
+        if at_arr.shape not in ((4, 4), (2, 4, 4)):
+            raise MechanismError(f"joint {name!r}: at must have shape (4, 4) or (2, 4, 4) (a pair "
+                                 f"of frames on link a and link b), got {at_arr.shape}")
         if at_arr.shape == (2, 4, 4):
             fa = check_transform(at_arr[0], f"joint {name!r}: at[0]")
             fb = check_transform(at_arr[1], f"joint {name!r}: at[1]")
@@ -158,6 +176,7 @@ class Mechanism:
             q0, rot0 = joint.coordinates_of(inverse(fa) @ fb)
             joint.frame_b = fb
         self.joints.append(joint)
+        self._joint_by_name[name] = joint
         self._q0.append(q0)
         self._rot0.append(rot0)
         self._tree = None
@@ -169,6 +188,9 @@ class Mechanism:
         if j.kind == "S":
             raise MechanismError(f"add_input: joint {joint!r} is spherical; its rotation is not a "
                                  "joint parameter that can be driven (use R, P, C, H or U)")
+        if isinstance(index, bool) or not isinstance(index, (int, np.integer)):
+            raise MechanismError(f"add_input: index must be an integer coordinate index of joint "
+                                 f"{joint!r} {j.coordinate_names}, got {index!r}")
         if not (0 <= int(index) < j.nq):
             raise MechanismError(f"add_input: joint {joint!r} ({j.kind}) has coordinates "
                                  f"{j.coordinate_names}; index {index} is out of range")
@@ -179,9 +201,9 @@ class Mechanism:
 
     def joint(self, name: str) -> Joint:
         """The joint called ``name``."""
-        for j in self.joints:
-            if j.name == name:
-                return j
+        j = self._joint_by_name.get(name) if isinstance(name, str) else None
+        if j is not None:
+            return j
         raise MechanismError(f"no joint named {name!r}; joints: "
                              f"{', '.join(j.name for j in self.joints)}")
 
@@ -254,38 +276,68 @@ class Mechanism:
             loop[k] = sign[lidx[j.link_a]] - sign[lidx[j.link_b]]
             loop[k, v_off[ci]:v_off[ci] + j.nv] += 1.0
         pts = np.array([j.frame_a[:3, 3] for j in self.joints])
-        scale = float(np.max(np.linalg.norm(pts - pts.mean(0), axis=1)))
+        centre = pts.mean(0)
+        scale = float(np.max(np.linalg.norm(pts - centre, axis=1)))
         if scale == 0.0:
             scale = 1.0
         return _Tree(tuple(self.links), tuple(parent), tuple(forward), tuple(order), chords,
                      sign, loop, tuple(v_off), tuple(q_off), tuple(s_idx), nv, nq, ns,
-                     np.array(length_cols, dtype=int), scale, lidx,
+                     np.array(length_cols, dtype=int), scale, centre, lidx,
                      np.array([lidx[j.link_a] for j in self.joints]),
                      np.array([j.frame_a for j in self.joints]))
 
+    def _loop_rank(self, state) -> np.ndarray:
+        """Numerical rank of the dimensionless loop Jacobian at each state ``(B,)``."""
+        J = self._scaled_jacobian(self.kinematic_state(state))
+        s = np.linalg.svd(J, compute_uv=False)
+        return np.sum(s > 1e-8 * np.maximum(s[:, :1], 1e-300), axis=1)
+
     def _check_mobility(self) -> None:
+        """Mobility from the rank of the loop Jacobian at generic poses.
+
+        The rank at the assembly pose can be low when the drawing itself is a
+        singular configuration (a parallelogram drawn flat): the rank is therefore
+        also taken at a few feasible poses near the assembly (random coordinate
+        perturbations projected back onto the loop equations by minimum-norm
+        Gauss–Newton), and the largest rank counts.  ``assembly_singular`` says when
+        the assembly pose's own rank is below it."""
         t = self._tree
         if not t.chords:                          # open chain (tree): every coordinate is free
-            J = np.zeros((0, t.nv))
+            self._mobility, self._singular_assembly = t.nv, False
         else:
-            J = self._scaled_jacobian(self.kinematic_state(self.assembly()))[0]
-        if J.shape[0]:
-            s = np.linalg.svd(J, compute_uv=False)
-            rank = int(np.sum(s > 1e-8 * max(s[0], 1e-300)))
-        else:
-            rank = 0
-        self._mobility = t.nv - rank
+            from .solver import project
+            q0, rot0 = self.assembly()
+            rank0 = int(self._loop_rank((q0, rot0))[0])
+            rng = np.random.default_rng(20261122)
+            n_try = 4
+            dv = rng.normal(size=(n_try, t.nv)) * 1e-3
+            from .solver import _apply
+            trial = _apply(self, (np.repeat(q0, n_try, 0), np.repeat(rot0, n_try, 0)), dv)
+            proj, res = project(self, trial)
+            good = res < 1e-10
+            ranks = self._loop_rank((proj[0][good], proj[1][good])) if good.any() else []
+            rank = max([rank0] + [int(r) for r in ranks])
+            self._mobility = t.nv - rank
+            self._singular_assembly = rank0 < rank
         if len(self.inputs) > self._mobility:
             self._tree = None
             raise MechanismError(f"{len(self.inputs)} inputs declared but the mechanism's mobility "
-                                 f"at the assembly pose is {self._mobility}")
+                                 f"is {self._mobility}")
 
     @property
     def mobility(self) -> int:
-        """Degrees of freedom at the assembly pose (joint coordinates minus the rank of the
-        loop Jacobian), idle freedoms such as the spin of an S–S rod included."""
+        """Degrees of freedom (joint coordinates minus the generic rank of the loop
+        Jacobian near the assembly pose), idle freedoms such as the spin of an S–S rod
+        included."""
         _ = self.tree
         return self._mobility
+
+    @property
+    def assembly_singular(self) -> bool:
+        """True when the assembly pose is a singular configuration: the loop Jacobian's
+        rank there is below its generic rank (e.g. a parallelogram drawn flat)."""
+        _ = self.tree
+        return self._singular_assembly
 
     @property
     def n_loops(self) -> int:
@@ -371,9 +423,12 @@ class Mechanism:
                 link[:, li] = link[:, lidx[j.link_b]] @ rel
         frame_a = link[:, t.joint_link_a] @ t.frames_a
         r = np.empty((B, len(t.chords), 6))
+        c = t.centre
         for k, ci in enumerate(t.chords):
             j = self.joints[ci]
             G = frame_a[:, ci] @ A[ci] @ j.frame_b_inv @ inverse(link[:, lidx[j.link_b]])
+            # about the mechanism's centre: T(-c) G T(c) = [R, R c + p - c]
+            G[:, :3, 3] += G[:, :3, :3] @ c - c
             r[:, k] = log_se3(G)
         out = {"link": link, "frame_a": frame_a, "A": A, "r": r}
         if not twists:
@@ -424,15 +479,28 @@ class Mechanism:
         J = np.einsum("lc,bcs->blsc", t.loop_coef, ks["S"])
         return J.reshape(J.shape[0], -1, t.nv)
 
-    def _scaled_jacobian(self, ks) -> np.ndarray:
-        """Dimensionless Jacobian: translation rows / scale, length columns / scale."""
-        J = self.jacobian(ks).copy()
+    def _scaled_rows(self, X) -> np.ndarray:
+        """World twist rows ``(B, 6·nloops, k)`` → dimensionless rows about the centre.
+
+        Twists are taken about the mechanism's centre (``v + ω × c``) and their
+        translation rows divided by its length scale, so that condition numbers,
+        convergence tests and flags do not depend on where the world origin is."""
         t = self.tree
-        L = t.scale
-        J = J.reshape(J.shape[0], -1, 6, t.nv)
-        J[:, :, :3, :] /= L
-        J = J.reshape(J.shape[0], -1, t.nv)
-        J[:, :, t.length_cols] *= L
+        B, k = X.shape[0], X.shape[-1]
+        Y = X.reshape(B, -1, 6, k).copy()
+        w = Y[:, :, 3:]
+        c = t.centre
+        Y[:, :, 0] += w[:, :, 1] * c[2] - w[:, :, 2] * c[1]
+        Y[:, :, 1] += w[:, :, 2] * c[0] - w[:, :, 0] * c[2]
+        Y[:, :, 2] += w[:, :, 0] * c[1] - w[:, :, 1] * c[0]
+        Y[:, :, :3] /= t.scale
+        return Y.reshape(B, -1, k)
+
+    def _scaled_jacobian(self, ks) -> np.ndarray:
+        """Dimensionless Jacobian: twists about the centre, translation rows and length
+        columns divided / multiplied by the scale."""
+        J = self._scaled_rows(self.jacobian(ks))
+        J[:, :, self.tree.length_cols] *= self.tree.scale
         return J
 
     def _scaled_residual(self, ks) -> np.ndarray:

@@ -11,7 +11,7 @@ from .errors import MechanismError
 __all__ = ["Pose"]
 
 #: status codes of a solved pose
-STATUS = {0: "ok", 1: "near-singular", 2: "no convergence", 3: "no assembly"}
+STATUS = {0: "ok", 1: "near-singular", 2: "no convergence", 3: "no assembly", 4: "dead point"}
 
 
 @dataclass
@@ -36,9 +36,14 @@ class Pose:
         over its expected rank (idle freedoms excluded).
     status : numpy.ndarray of int, shape (B,)
         0 ok, 1 near-singular (condition above the limit), 2 no convergence,
-        3 no assembly (converged to a loop transform that is not the identity).
+        3 no assembly (converged to a loop transform that is not the identity),
+        4 dead point (the continuation from the guess stopped at a fold before
+        the input: see ``reached``).
     scalar : bool
         True when a single input value was given (accessors then drop the batch axis).
+    reached : numpy.ndarray, shape (B, n_inputs), optional
+        The inputs the solver actually reached (differs from ``inputs`` only where
+        ``status`` is 4, "dead point"); None where not tracked.
     """
 
     mechanism: object
@@ -51,6 +56,7 @@ class Pose:
     status: np.ndarray
     scalar: bool = False
     _ks: dict | None = field(default=None, repr=False, compare=False)
+    reached: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
     def state(self):

@@ -16,7 +16,7 @@ import pandas as pd
 
 from .errors import ClosureError, MechanismError
 from .frames import log_so3
-from .pose import Pose
+from .pose import STATUS, Pose
 
 __all__ = ["solve", "sweep", "predict", "SolverOptions"]
 
@@ -29,6 +29,8 @@ class SolverOptions:
     xtol : float
         Convergence when the residual no longer falls: the largest (dimensionless)
         Newton step ≤ ``xtol``.  A residual at rounding level (1e-14) converges at once.
+        Both are multiplied by ``1 + |centre| / scale`` of the mechanism: a model far
+        from the world origin holds its coordinates to that many fewer digits.
     rtol : float
         A converged pose with residual above ``rtol`` did not close ("no assembly").
     maxiter : int
@@ -37,11 +39,34 @@ class SolverOptions:
         trust region that keeps Newton on its branch.
     cond_limit : float
         Poses whose Jacobian condition number exceeds this are flagged near-singular.
+
+    path_step : float
+        Continuation: largest predicted change of any (dimensionless) coordinate per
+        internal step (rad).  Steps are subdivided below it whatever step the caller
+        asks for, so that predictor and corrector agree and no branch is skipped.
     """
 
-    def __init__(self, xtol=1e-12, rtol=1e-10, maxiter=60, max_step=0.5, cond_limit=1e7):
+    def __init__(self, xtol=1e-12, rtol=1e-10, maxiter=60, max_step=0.5, cond_limit=1e7,
+                 path_step=0.1):
+        for name, v in (("xtol", xtol), ("rtol", rtol), ("max_step", max_step),
+                        ("cond_limit", cond_limit), ("path_step", path_step)):
+            if isinstance(v, bool) or not (isinstance(v, (int, float, np.integer, np.floating))
+                                           and np.isfinite(v) and v > 0):
+                raise MechanismError(f"SolverOptions: {name} must be a positive finite number, "
+                                     f"got {v!r}")
+        if isinstance(maxiter, bool) or not isinstance(maxiter, (int, np.integer)) or maxiter < 1:
+            raise MechanismError(f"SolverOptions: maxiter must be a positive integer, got "
+                                 f"{maxiter!r}")
         self.xtol, self.rtol, self.maxiter = float(xtol), float(rtol), int(maxiter)
         self.max_step, self.cond_limit = float(max_step), float(cond_limit)
+        self.path_step = float(path_step)
+
+    def replace(self, **kw) -> "SolverOptions":
+        """A copy with some fields changed."""
+        d = dict(xtol=self.xtol, rtol=self.rtol, maxiter=self.maxiter, max_step=self.max_step,
+                 cond_limit=self.cond_limit, path_step=self.path_step)
+        d.update(kw)
+        return SolverOptions(**d)
 
 
 def _expected_rank(mech) -> int:
@@ -50,17 +75,26 @@ def _expected_rank(mech) -> int:
     return n_unknown - idle
 
 
+#: singular values below this fraction of the largest are treated as zero in steps
+#: (minimum-norm steps at exactly singular poses, never a 1/0 blow-up)
+SINGULAR_RTOL = 1e-12
+
+
 def _pinv_parts(J, rank):
-    """Truncated SVD pieces of a batch of matrices: (U, inv_s, Vt, condition)."""
+    """Truncated SVD pieces of a batch of matrices: (U, inv_s, Vt, condition).
+
+    Keeps the ``rank`` largest singular values, and of those only the ones above
+    ``SINGULAR_RTOL`` times the largest; the condition is ``s_max / s_rank``."""
     if J.shape[-1] == 0 or J.shape[-2] == 0:         # open chain: nothing to solve
         k = min(J.shape[-2:])
         B = J.shape[:-2]
         return (np.zeros(B + (J.shape[-2], k)), np.zeros(B + (k,)),
                 np.zeros(B + (k, J.shape[-1])), np.ones(B))
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
+    rank = min(rank, s.shape[-1])
     k = np.arange(s.shape[-1])
-    keep = k < rank
     smax = s[..., :1]
+    keep = (k < rank) & (s > SINGULAR_RTOL * smax)
     srank = s[..., rank - 1] if rank > 0 else np.ones(s.shape[:-1])
     with np.errstate(divide="ignore"):
         inv_s = np.where(keep & (s > 1e-300), 1.0 / np.where(s > 0, s, 1.0), 0.0)
@@ -109,21 +143,27 @@ def _ks_put(dst, idx, src, sub):
         a[idx] = b[sub]
 
 
-def newton(mech, state, opts: SolverOptions):
+def newton(mech, state, opts: SolverOptions, columns=None, rank=None):
     """Correct a batch of states (inputs already set) so that every loop closes.
 
     Each iteration evaluates the kinematic state once per line-search trial;
     the accepted trial's state serves the next iteration's Jacobian.  A pose is
-    converged when its residual is at rounding level (≤ 1e-14), or when the
-    Newton step computed at it is at most ``xtol`` and the residual stopped
+    converged when its residual is at rounding level (≤ 1e-14 · offset), or when the
+    Newton step computed at it is at most ``xtol`` · offset and the residual stopped
     falling; the residual and condition number reported are those of the state
     returned.
+
+    ``columns`` and ``rank`` (default: the unknowns and their expected rank) choose
+    the coordinates that move.
 
     Returns ``(state, residual, iterations, condition, converged, ks)`` where
     ``ks`` is the kinematic state of the returned poses.
     """
-    unknown = mech.unknown_columns()
-    rank = _expected_rank(mech)
+    unknown = mech.unknown_columns() if columns is None else columns
+    rank = _expected_rank(mech) if rank is None else rank
+    t = mech.tree
+    offset = 1.0 + float(np.linalg.norm(t.centre)) / t.scale   # digits lost to the origin
+    floor, xtol = 1e-14 * offset, opts.xtol * offset
     q, rot = (a.copy() for a in state)
     B = q.shape[0]
     its = np.zeros(B, dtype=int)
@@ -150,7 +190,7 @@ def newton(mech, state, opts: SolverOptions):
         # as the condition number allows), or steps of at most xtol that no longer
         # reduce the residual
         stalled = (its[act] > 1) & (res[act] > 0.5 * prev[act])
-        conv = ((big <= opts.xtol) & stalled) | (res[act] <= 1e-14)
+        conv = ((big <= xtol) & stalled) | (res[act] <= floor)
         prev[act] = res[act]
         done[act[conv]] = True
         move = np.nonzero(~conv)[0]
@@ -170,7 +210,7 @@ def newton(mech, state, opts: SolverOptions):
             trial = _apply(mech, (q0[idx], rot0[idx]), step[idx] * alpha[idx, None])
             ks_t = mech.kinematic_state(trial)
             rn = _norm(mech._scaled_residual(ks_t))
-            good = (rn <= r0[idx] * (1 + 1e-9)) | (rn < 1e-14) | (h == 7)
+            good = (rn <= r0[idx] * (1 + 1e-9)) | (rn < floor) | (h == 7)
             g = act[idx[good]]
             q[g], rot[g] = trial[0][good], trial[1][good]
             res[g] = rn[good]
@@ -231,8 +271,150 @@ def _status(res, cond, conv, opts):
     return status
 
 
+def project(mech, state, opts: SolverOptions | None = None):
+    """Move a batch of states onto the loop equations with every coordinate free
+    (minimum-norm Gauss–Newton steps).  Returns ``(state, residual)``."""
+    opts = opts or SolverOptions()
+    nv = mech.tree.nv
+    st, res, _, _, _, _ = newton(mech, state, opts, columns=np.arange(nv), rank=nv)
+    return st, res
+
+
+def _input_scale(mech) -> np.ndarray:
+    """Per input: 1 for angles, the length scale for lengths (dimensionless inputs)."""
+    cols = mech.input_columns()
+    return np.where(np.isin(cols, mech.tree.length_cols), mech.tree.scale, 1.0)
+
+
+#: beyond this condition number a pose's own first analogs are not trusted as the path's
+#: tangent (at a singular configuration they are not unique): the previous tangent is kept
+TANGENT_COND = 1e9
+
+
+def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e-10,
+              tangent=None):
+    """Batched continuation of solved poses ``start`` (B poses) to the inputs ``x_to``.
+
+    Every member walks the straight input path from its own inputs to its target
+    with its own step: a first-order predictor along the analogs, capped so that no
+    dimensionless coordinate is predicted to move more than ``opts.path_step``, then
+    the Newton corrector; a step is accepted only when the corrector converges, the
+    loops close and the corrected pose lies within half the predicted step of the
+    predictor (so the path cannot hop to another branch); otherwise it is halved.
+    A member whose step falls below ``min_step`` (dimensionless input) stops there:
+    a fold of the loop equations (a dead point of the input) or the end of the
+    assembly.  At a pose whose condition number exceeds ``TANGENT_COND`` (a singular
+    configuration the branch crosses) the tangent of the previous pose is kept, so
+    the path leaves the crossing on the branch it came in on; ``tangent`` (B, nv, ni)
+    gives that previous tangent for the start poses.
+
+    Returns
+    -------
+    pose : Pose
+        Each member's last accepted pose (its ``inputs`` are where it stands).
+    stop : (B,) int
+        0 reached the target, 3 no assembly, 4 dead point.
+    tangent : (B, nv, ni)
+        The first analogs used last (the path's tangent at the returned poses).
+    """
+    t = mech.tree
+    B = len(start)
+    inq = mech.input_q_columns()
+    xs = _input_scale(mech)
+    x_from = start.inputs.astype(float).copy()
+    x_to = np.broadcast_to(np.asarray(x_to, float), x_from.shape).copy()
+    span = x_to - x_from
+    span_s = np.max(np.abs(span / xs), axis=1) if span.size else np.zeros(B)
+    q, rot = start.q.copy(), start.rot.copy()
+    x_cur = x_from.copy()
+    res, cond = start.residual.astype(float).copy(), start.condition.astype(float).copy()
+    its = start.iterations.astype(int).copy()
+    ks_all = _ks_take(start.kinematics(), np.arange(B))       # a copy: updated in place
+    first = np.zeros((B, t.nv, x_from.shape[1]))
+    have = np.zeros(B, dtype=bool)
+    if tangent is not None:
+        first[:] = tangent
+        have[:] = True
+    need = np.ones(B, dtype=bool)
+    lam, h = np.zeros(B), np.ones(B)
+    stop = np.zeros(B, dtype=int)
+    active = span_s > 0
+    step_opts = opts.replace(maxiter=min(opts.maxiter, 15))
+    from .kinematics import analogs   # local: kinematics imports solver helpers
+    while active.any():
+        a = np.nonzero(active)[0]
+        nf = a[need[a]]
+        if nf.size:
+            cur = Pose(mech, x_cur[nf], q[nf], rot[nf], res[nf], its[nf], cond[nf],
+                       np.zeros(nf.size, int), _ks=_ks_take(ks_all, nf))
+            new = analogs(mech, cur, second=False)[0]
+            keep = have[nf] & (cond[nf] > TANGENT_COND)
+            first[nf] = np.where(keep[:, None, None], first[nf], new)
+            have[nf] = True
+            need[nf] = False
+        hh = np.minimum(h[a], 1.0 - lam[a])
+        dx = x_from[a] + (lam[a] + hh)[:, None] * span[a] - x_cur[a]
+        dv = np.einsum("bci,bi->bc", first[a], dx)
+        dv[:, t.length_cols] /= t.scale
+        big = np.max(np.abs(dv), axis=1)
+        shrink = np.minimum(1.0, opts.path_step / np.maximum(big, 1e-300))
+        hh, dv, dx, big = hh * shrink, dv * shrink[:, None], dx * shrink[:, None], big * shrink
+        final = lam[a] + hh >= 1.0
+        xt = np.where(final[:, None], x_to[a], x_cur[a] + dx)
+        pq, prot = _apply(mech, (q[a], rot[a]), dv)
+        pq[:, inq] = xt
+        st, r, it, c, conv, ks = newton(mech, (pq, prot), step_opts)
+        jump = np.max(np.abs(_coord_distance(mech, st, (pq, prot))), axis=1)
+        ok = conv & (r <= opts.rtol) & (jump <= 0.5 * big)
+        g, sub = a[ok], np.nonzero(ok)[0]
+        if g.size:
+            q[g], rot[g], x_cur[g] = st[0][sub], st[1][sub], xt[sub]
+            res[g], cond[g], its[g] = r[sub], c[sub], its[g] + it[sub]
+            _ks_put(ks_all, g, ks, sub)
+            lam[g] = np.where(final[sub], 1.0, lam[g] + hh[sub])
+            h[g] = 2.0 * hh[sub]
+            need[g] = True
+            active[g[final[sub]]] = False
+        bad, bsub = a[~ok], np.nonzero(~ok)[0]
+        if bad.size:
+            h[bad] = 0.5 * hh[bsub]
+            dead = h[bad] * span_s[bad] < min_step
+            if dead.any():
+                d, dsub = bad[dead], bsub[dead]
+                stop[d] = np.where(conv[dsub] & (r[dsub] > opts.rtol), 3, 4)
+                active[d] = False
+    pose = Pose(mech, x_cur, q, rot, res, its, cond, np.zeros(B, int), _ks=ks_all)
+    return pose, stop, first
+
+
+def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions) -> Pose:
+    """The poses continuation starts from: the guess (or the assembly) corrected at its
+    own inputs, broadcast to B members."""
+    if guess is None:
+        q, rot = mech.assembly()
+        x0 = q[:, mech.input_q_columns()]
+    else:
+        if not isinstance(guess, Pose):
+            raise MechanismError(f"guess: expected a Pose, got {type(guess).__name__}")
+        if guess.mechanism is not mech:
+            raise MechanismError("guess: a Pose of another mechanism")
+        q, rot, x0 = guess.q, guess.rot, np.asarray(guess.inputs, float).reshape(len(guess), -1)
+    if q.shape[0] not in (1, B):
+        raise MechanismError(f"guess: has {q.shape[0]} poses, expected 1 or {B}")
+    n = q.shape[0]
+    q = q.copy()
+    q[:, mech.input_q_columns()] = x0
+    st, res, its, cond, conv, ks = newton(mech, (q, rot.copy()), opts)
+    pose = Pose(mech, x0, st[0], st[1], res, its, cond, _status(res, cond, conv, opts), _ks=ks)
+    if n == 1 and B > 1:
+        idx = np.zeros(B, dtype=int)
+        pose = Pose(mech, x0[idx], st[0][idx], st[1][idx], res[idx], its[idx], cond[idx],
+                    pose.status[idx], _ks=_ks_take(ks, idx))
+    return pose
+
+
 def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | None = None,
-          raise_on_failure: bool = True) -> Pose:
+          raise_on_failure: bool = True, continuation: bool = True) -> Pose:
     """Solve the loop-closure equations for one input value or a batch.
 
     Parameters
@@ -242,51 +424,70 @@ def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | N
         Input coordinates (rad or length), in the order of ``add_input`` calls.
     guess : Pose, optional
         Starting pose (one pose, or as many as inputs); default the assembly pose.
+        The solution stays on the guess's assembly branch.
     options : SolverOptions, optional
     raise_on_failure : bool
         Raise :class:`ClosureError` (with the figures) when any input fails to
         close; otherwise return the poses with their ``status``.
+    continuation : bool
+        True (default): every input is reached by batched continuation from the
+        guess (see :func:`sweep`), so a far input is reached on the guess's branch
+        or reported as not reached ("dead point", with ``reached`` saying where the
+        path stopped).  False: one Newton correction from the guess (fast for
+        near guesses, no branch guarantee).
 
     Returns
     -------
     Pose
+        With ``reached``: the inputs actually reached (equal to ``inputs`` where
+        ``status`` is "ok" or "near-singular").
     """
     opts = options or SolverOptions()
     x, scalar = _inputs_array(mech, inputs)
     B = x.shape[0]
-    if guess is None:
-        q, rot = mech.assembly()
+    start = _start_pose(mech, guess, B, opts)
+    if continuation:
+        pose, stop, _ = _continue(mech, start, x, opts)
+        res, cond = pose.residual, pose.condition
+        status = _status(res, cond, np.ones(B, bool), opts)
+        status = np.where(start.status >= 2, start.status, np.where(stop > 0, stop, status))
+        reached = pose.inputs
+        pose = Pose(mech, x, pose.q, pose.rot, res, pose.iterations, cond, status, scalar,
+                    _ks=pose._ks, reached=reached)
     else:
-        q, rot = guess.q, guess.rot
-    if q.shape[0] not in (1, B):
-        raise MechanismError(f"guess: has {q.shape[0]} poses, expected 1 or {B}")
-    q = np.broadcast_to(q, (B,) + q.shape[1:]).copy()
-    rot = np.broadcast_to(rot, (B,) + rot.shape[1:]).copy()
-    q[:, mech.input_q_columns()] = x
-    state, res, its, cond, conv, ks = newton(mech, (q, rot), opts)
-    pose = Pose(mech, x, state[0], state[1], res, its, cond, _status(res, cond, conv, opts), scalar)
-    pose._ks = ks
+        q, rot = start.q.copy(), start.rot.copy()
+        q[:, mech.input_q_columns()] = x
+        state, res, its, cond, conv, ks = newton(mech, (q, rot), opts)
+        pose = Pose(mech, x, state[0], state[1], res, its, cond, _status(res, cond, conv, opts),
+                    scalar, _ks=ks)
     bad = pose.status >= 2
     if raise_on_failure and bad.any():
         i = np.nonzero(bad)[0]
+        where = ""
+        if pose.reached is not None and pose.status[i[0]] == 4:
+            where = f", reached {pose.reached[i[0]].tolist()}"
         raise ClosureError(
             f"loop closure failed for {i.size} of {B} inputs (first: inputs {x[i[0]].tolist()}, "
-            f"{pose.status_text[i[0]]}, residual {res[i[0]]:.2e}, condition {cond[i[0]]:.2e})",
-            inputs=x[i], residual=res[i], condition=cond[i])
+            f"{pose.status_text[i[0]]}{where}, residual {pose.residual[i[0]]:.2e}, condition "
+            f"{pose.condition[i[0]]:.2e})",
+            inputs=x[i], residual=pose.residual[i], condition=pose.condition[i])
     return pose
 
 
 def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | None = None,
-          max_halvings: int = 12, return_pose: bool = False):
+          return_pose: bool = False):
     """Continuation along a path of inputs; one row per value.
 
-    Each step starts from a first-order predictor (the previous pose plus the
-    velocity solution times the input increment) and is split in halves when
-    the corrector fails, jumps more than half the predicted step away from the
-    predictor, or loses the Jacobian's rank.  When a step cannot be completed
-    the row is flagged (``status`` "dead point" with the condition number, or
-    "no assembly") and the sweep stops there: the remaining rows say "not
-    reached".  It never continues silently on another assembly branch.
+    Between consecutive values the path is subdivided internally (see
+    :class:`SolverOptions` ``path_step``): each internal step starts from a
+    first-order predictor and is accepted only when the corrector stays within
+    half the predicted step of it, so the rows returned lie on the branch of the
+    first row whatever step is asked for.  A singular configuration that the
+    branch crosses smoothly (a parallelogram passing its flat position) is passed,
+    with its condition number in the row.  When the path cannot go on (a fold:
+    the input's dead point, or the end of the assembly) the row is flagged
+    ("dead point" or "no assembly", ``reached:<label>`` saying where it stopped)
+    and the remaining rows say "not reached".
 
     Returns
     -------
@@ -299,69 +500,32 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
         Only with ``return_pose=True``: the poses of the rows that were reached
         (for velocities, accelerations and analogs along the path).
     """
-    from .kinematics import analogs  # local: kinematics imports solver helpers
-
     opts = options or SolverOptions()
     x, _ = _inputs_array(mech, values)
-    start = solve(mech, x[0], guess, options=opts, raise_on_failure=False)
-    rows_q, rows_rot = [start.q[0]], [start.rot[0]]
-    res, cond, its, status = [start.residual[0]], [start.condition[0]], [start.iterations[0]], \
-        ["ok" if start.status[0] == 0 else start.status_text[0]]
-    cur, first_of = start, None
-    unknown = mech.unknown_columns()
-    stopped = start.status[0] >= 2
+    cur = solve(mech, x[0], guess, options=opts, raise_on_failure=False)
+    poses, status = [cur], [cur.status_text[0] if cur.status[0] >= 2 else "ok"]
+    stopped = cur.status[0] >= 2
+    tangent = None
     for i in range(1, x.shape[0]):
         if stopped:
             break
-        target = x[i]
-        frac_done, h = 0.0, 1.0
-        halvings = 0
-        while frac_done < 1.0:
-            h = min(h, 1.0 - frac_done)
-            xt = x[i - 1] + (frac_done + h) * (target - x[i - 1])
-            if first_of is not cur:                      # analogs once per accepted pose
-                first, first_of = analogs(mech, cur, second=False)[0][0], cur
-            pred, dv_s = predict(mech, cur, xt, first)
-            st, r, it, c, conv, ks = newton(mech, pred, opts)
-            jump = np.max(np.abs(_coord_distance(mech, st, pred)))
-            step_len = np.max(np.abs(dv_s[unknown])) if unknown.size else 0.0
-            okay = conv[0] and r[0] <= opts.rtol and c[0] <= opts.cond_limit and \
-                jump <= 0.5 * max(step_len, 1e-3)
-            if okay:
-                cur = Pose(mech, xt[None], st[0], st[1], r, it, c, np.zeros(1, int), _ks=ks)
-                frac_done += h
-                h *= 2.0
-                halvings = max(0, halvings - 1)
-                continue
-            halvings += 1
-            h *= 0.5
-            if halvings > max_halvings:
-                stopped = True
-                break
-        if stopped:
-            st_name = "no assembly" if (conv[0] and r[0] > opts.rtol) else "dead point"
-            rows_q.append(cur.q[0])
-            rows_rot.append(cur.rot[0])
-            res.append(cur.residual[0])
-            cond.append(cur.condition[0])
-            its.append(0)
-            status.append(st_name)
-            reached_at = cur.inputs[0]
+        nxt, stop, tangent = _continue(mech, cur, x[i][None], opts, tangent=tangent)
+        poses.append(nxt)
+        if stop[0]:
+            status.append(STATUS[int(stop[0])])
+            stopped = True
             break
-        rows_q.append(cur.q[0])
-        rows_rot.append(cur.rot[0])
-        res.append(cur.residual[0])
-        cond.append(cur.condition[0])
-        its.append(cur.iterations[0])
         status.append("ok")
-    n = len(rows_q)
-    pose = Pose(mech, x[:n].copy(), np.array(rows_q), np.array(rows_rot),
-                np.array(res), np.array(its), np.array(cond), np.zeros(n, int))
+        cur = nxt
+    n = len(poses)
+    reached = np.concatenate([p.inputs for p in poses])
+    pose = Pose(mech, x[:n].copy(), np.concatenate([p.q for p in poses]),
+                np.concatenate([p.rot for p in poses]),
+                np.concatenate([p.residual for p in poses]),
+                np.concatenate([p.iterations for p in poses]),
+                np.concatenate([p.condition for p in poses]), np.zeros(n, int))
     df = pose.table()
     df["status"] = status
-    reached = x[:n].copy()
-    if stopped and n > 1 and status[-1] != "ok":
-        reached[-1] = reached_at
     for k, lab in enumerate(mech.input_labels()):
         df[f"reached:{lab}"] = reached[:, k]
     if n < x.shape[0]:
@@ -370,10 +534,23 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
         df = pd.concat([df, rest], ignore_index=True)
     if return_pose:
         ok = np.array(status) == "ok"
+        ks = _ks_cat([p.kinematics() for p in poses])
         pose = Pose(mech, pose.inputs[ok], pose.q[ok], pose.rot[ok], pose.residual[ok],
-                    pose.iterations[ok], pose.condition[ok], pose.status[ok])
+                    pose.iterations[ok], pose.condition[ok],
+                    _status(pose.residual[ok], pose.condition[ok], np.ones(ok.sum(), bool), opts),
+                    _ks=_ks_take(ks, np.nonzero(ok)[0]))
         return df, pose
     return df
+
+
+def _ks_cat(kss):
+    """Concatenate kinematic states along the batch."""
+    out = {k: np.concatenate([ks[k] for ks in kss]) for k in _BATCHED if k in kss[0]}
+    out["A"] = [np.concatenate(a) for a in zip(*(ks["A"] for ks in kss))]
+    for k in ("carrier", "deps"):
+        if k in kss[0]:
+            out[k] = kss[0][k]
+    return out
 
 
 def _coord_distance(mech, a, b):

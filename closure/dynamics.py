@@ -27,10 +27,10 @@ import numpy as np
 import pandas as pd
 
 from .errors import ClosureError, MechanismError
-from .frames import cross, skew
+from .frames import as_array, as_index, as_number, cross, skew
 from .kinematics import _bias, analogs, link_twists
 from .pose import Pose
-from .solver import predict
+from .solver import TANGENT_COND, SolverOptions
 
 __all__ = ["Body", "Dynamics", "pseudo_inertia"]
 
@@ -47,8 +47,9 @@ def pseudo_inertia(mass: float, com, inertia) -> np.ndarray:
     ``Σ = ∫ r rᵀ dm = ½ tr(I) E − I + m c cᵀ`` (about the link origin): the
     seed's diagonal entries ``½(−I_xx + I_yy + I_zz)`` etc.
     """
-    c = np.asarray(com, float)
-    I = np.asarray(inertia, float)
+    mass = as_number(mass, "pseudo_inertia: mass")
+    c = as_array(com, "pseudo_inertia: com", (3,))
+    I = as_array(inertia, "pseudo_inertia: inertia", (3, 3))
     S = 0.5 * np.trace(I) * np.eye(3) - I + mass * np.outer(c, c)
     J = np.zeros((4, 4))
     J[:3, :3] = S
@@ -67,9 +68,10 @@ class Body:
     inertia: np.ndarray
 
     def __post_init__(self):
-        self.com = np.asarray(self.com, float)
-        self.inertia = np.asarray(self.inertia, float)
-        if not (np.isfinite(self.mass) and self.mass > 0):
+        self.mass = as_number(self.mass, f"body {self.link!r}: mass")
+        self.com = as_array(self.com, f"body {self.link!r}: com", finite=False)
+        self.inertia = as_array(self.inertia, f"body {self.link!r}: inertia", finite=False)
+        if not self.mass > 0:
             raise MechanismError(f"body {self.link!r}: mass must be positive (kg), got {self.mass}")
         if self.com.shape != (3,) or not np.all(np.isfinite(self.com)):
             raise MechanismError(f"body {self.link!r}: com must be a finite 3-vector (m)")
@@ -116,10 +118,13 @@ class Dynamics:
     """
 
     def __init__(self, mechanism, gravity=(0.0, 0.0, -9.81)):
+        from .mechanism import Mechanism
+        if not isinstance(mechanism, Mechanism):
+            raise MechanismError(f"mechanism: expected a Mechanism, got {type(mechanism).__name__}")
         self.m = mechanism
-        self.gravity = np.asarray(gravity, float)
-        if self.gravity.shape != (3,):
-            raise MechanismError("gravity: expected a 3-vector (m/s²)")
+        self.gravity = as_array(gravity, "gravity", finite=False)
+        if self.gravity.shape != (3,) or not np.all(np.isfinite(self.gravity)):
+            raise MechanismError(f"gravity: expected a finite 3-vector (m/s²), got {gravity!r}")
         self.bodies: list[Body] = []
         self.elements: list[_JointElement] = []
 
@@ -127,15 +132,16 @@ class Dynamics:
     def add_body(self, link: str, mass: float, com=(0, 0, 0), inertia=None) -> Body:
         """Mass properties of ``link``: ``com`` in ground coordinates at the assembly pose
         (= link coordinates), ``inertia`` about the com (default zero: a point mass)."""
-        if link not in self.m.links or link == self.m.ground:
+        if not isinstance(link, str) or link not in self.m.links or link == self.m.ground:
             raise MechanismError(f"add_body: {link!r} is not a moving link; links: "
                                  f"{', '.join(self.m.links[1:])}")
-        b = Body(link, float(mass), com, np.zeros((3, 3)) if inertia is None else inertia)
+        b = Body(link, as_number(mass, f"add_body: {link!r}: mass"), com, np.zeros((3, 3)) if inertia is None else inertia)
         self.bodies.append(b)
         return b
 
     def _coord(self, joint, index, what):
         j = self.m.joint(joint)
+        index = as_index(index, f"{what}: index")
         if j.kind == "S":
             raise MechanismError(f"{what}: joint {joint!r} is spherical; springs, dampers and "
                                  "forces act on scalar joint coordinates")
@@ -146,14 +152,17 @@ class Dynamics:
 
     def add_spring(self, joint: str, stiffness: float, free: float = 0.0, index: int = 0):
         """Linear spring on a joint coordinate: force ``−k (q − free)`` (N/m or N·m/rad)."""
-        if not (np.isfinite(stiffness) and stiffness >= 0):
+        stiffness = as_number(stiffness, "add_spring: stiffness")
+        free = as_number(free, "add_spring: free")
+        if not stiffness >= 0:
             raise MechanismError(f"add_spring: stiffness must be ≥ 0, got {stiffness}")
         c, qc = self._coord(joint, index, "add_spring")
         self.elements.append(_JointElement(c, qc, "spring", float(stiffness), float(free)))
 
     def add_damper(self, joint: str, coefficient: float, index: int = 0):
         """Viscous damper on a joint coordinate: force ``−c q̇`` (N·s/m or N·m·s/rad)."""
-        if not (np.isfinite(coefficient) and coefficient >= 0):
+        coefficient = as_number(coefficient, "add_damper: coefficient")
+        if not coefficient >= 0:
             raise MechanismError(f"add_damper: coefficient must be ≥ 0, got {coefficient}")
         c, qc = self._coord(joint, index, "add_damper")
         self.elements.append(_JointElement(c, qc, "damper", float(coefficient)))
@@ -268,13 +277,27 @@ class Dynamics:
         DataFrame: ``t``, inputs, ``drive:<input>`` (N or N·m), the joint
         coordinates, ``residual`` and ``condition``.  Nothing is integrated.
         """
-        t = np.asarray(t, float)
+        t = as_array(t, "inverse: t")
+        if t.ndim != 1 or t.size == 0:
+            raise MechanismError(f"inverse: t must be a non-empty 1-D array of times, got shape "
+                                 f"{t.shape}")
         if callable(x):
-            x, xd, xdd = (np.asarray(v, float).reshape(t.size, -1) for v in x(t))
+            motion = x(t)
+            if not isinstance(motion, (tuple, list)) or len(motion) != 3:
+                raise MechanismError("inverse: the callable x(t) must return (x, xd, xdd)")
         else:
             if xd is None or xdd is None:
                 raise MechanismError("inverse: give xd and xdd with an array x, or a callable")
-            x, xd, xdd = (np.asarray(v, float).reshape(t.size, -1) for v in (x, xd, xdd))
+            motion = (x, xd, xdd)
+        n = len(self.m.inputs)
+        arrays = []
+        for name, v in zip(("x", "xd", "xdd"), motion):
+            a = as_array(v, f"inverse: {name}")
+            if a.size != t.size * n:
+                raise MechanismError(f"inverse: {name} must have shape ({t.size}, {n}) "
+                                     f"(times, inputs), got {a.shape}")
+            arrays.append(a.reshape(t.size, n))
+        x, xd, xdd = arrays
         df, pose = self.m.sweep(x, return_pose=True)
         if len(pose) != t.size:
             bad = df[df.status != "ok"].iloc[0]
@@ -293,112 +316,115 @@ class Dynamics:
         return out
 
     # ------------------------------------------------------------ forward dynamics
-    def simulate(self, t_span, x0, xd0, *, t_eval=None, drive: Callable | None = None,
-                 method: str = "DOP853", rtol: float = 1e-10, atol: float = 1e-12,
-                 stop_at_dead_point: bool = True, **ivp_kw) -> pd.DataFrame:
-        """Forward dynamics by ``scipy.integrate.solve_ivp`` (any of its methods).
+    def simulate(self, t_span, x0, xd0, *, guess: Pose | None = None, t_eval=None,
+                 drive: Callable | None = None, method: str = "DOP853", rtol: float = 1e-10,
+                 atol: float = 1e-12, stop_at_dead_point: bool = True,
+                 options: SolverOptions | None = None, **ivp_kw) -> pd.DataFrame:
+        """Forward dynamics by one of scipy's ``solve_ivp`` method classes.
 
         Parameters
         ----------
         t_span : (t0, t1) s
         x0, xd0 : (n,) initial independent coordinates and rates
+        guess : Pose, optional
+            The branch to start on: the initial pose is reached by continuation from
+            this pose (default the assembly pose), so a start far from the assembly
+            keeps the branch of ``guess``.
+        t_eval : (N,) output times, optional
+            Default: the integrator's own steps (their poses, solved during the run).
         drive : callable ``drive(t, x, xd) -> (n,)``, optional
             Forces on the inputs (N or N·m), e.g. from :meth:`inverse`.
+        method : {"RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA"}
+        rtol, atol : float
+            The integrator's tolerances.
         stop_at_dead_point : bool
-            Stop when the Jacobian condition number passes the solver's limit.
-            Whatever this says, the integration stops (with ``status`` 1 in
-            ``.attrs["ivp"]`` and the reason in its ``message``) when a step
-            reaches past a fold of the loop equations where no assembly exists.
-
-        The integrator is scipy's (``solve_ivp``'s method classes, stepped here so
-        that a dead point ends the run with the trajectory up to it).
+            Stop when the condition number passes the solver's limit at a fold of
+            the loop equations (a toggle: the input rates blow up there).  A
+            singular configuration that the branch crosses with bounded rates (a
+            parallelogram passing its flat position) never stops the run.
+            Whatever this says, the run stops with status 1 when a stage reaches
+            past a fold where no assembly exists.
 
         Returns
         -------
         DataFrame per output time: ``t``, inputs and their rates, joint
-        coordinates, ``kinetic, potential, energy``, ``dissipated`` and
-        ``work`` (integrated), ``balance`` = energy + dissipated − work − E(0)
-        (zero for an exact solution), ``residual``, ``condition``; the
-        solve_ivp result is in ``.attrs["ivp"]``.
+        coordinates, ``kinetic, potential, energy``, ``dissipated`` and ``work``
+        (integrated), ``balance`` = energy + dissipated − work − E(0) (zero for
+        an exact solution), ``residual``, ``condition`` and ``flag`` (empty, or
+        why a row is doubtful: a condition number above the limit, or an energy
+        balance error above ``max(1e-6, 1e4·rtol)`` of the run's energy scale).
+        ``.attrs["ivp"]`` is an :class:`~closure.integrate.IntegrationResult`
+        (status 0 completed, 1 stopped at a dead point; message; RHS calls);
+        ``.attrs["status"]`` and ``.attrs["message"]`` repeat its verdict.
         """
+        from .integrate import PoseTracker, check_method, integrate, poses_at, regular_limit
         mech = self.m
         n = len(mech.inputs)
-        x0 = np.asarray(x0, float).reshape(n)
-        xd0 = np.asarray(xd0, float).reshape(n)
-        cache = {"pose": mech.solve(x0)}
-        opts = None
+        check_method(method)
+        x0 = _finite_vector(x0, n, "x0")
+        xd0 = _finite_vector(xd0, n, "xd0")
+        for name, v in (("rtol", rtol), ("atol", atol)):
+            if not (np.isfinite(v) and v > 0):
+                raise MechanismError(f"simulate: {name} must be a positive number, got {v!r}")
+        t0, t1 = (float(v) for v in np.asarray(t_span, float).reshape(2))
+        if not (np.isfinite(t0) and np.isfinite(t1) and t1 > t0):
+            raise MechanismError(f"simulate: t_span must be (t0, t1) with t1 > t0, got {t_span}")
+        opts = options or SolverOptions()
+        start = mech.solve(x0, guess=guess, options=opts)
+        start.scalar = False
+        tracker = PoseTracker(mech, start, opts, xd0 if np.any(xd0) else np.eye(n)[0])
+        buf = {}
 
-        def pose_at(x):
-            g = cache["pose"]
-            if cache.get("first_of") is not g:
-                cache["first"], cache["first_of"] = analogs(mech, g, second=False)[0], g
-            (q, rot), _ = predict(mech, g, x, cache["first"][0])
-            guess = Pose(mech, x[None], q, rot, g.residual, g.iterations, g.condition, g.status)
-            p = mech.solve(x, guess=guess, options=opts, raise_on_failure=False)
-            if p.status[0] >= 2:
-                raise ClosureError(f"simulate: loops do not close at x = {x.tolist()} "
-                                   f"({p.status_text[0]}, residual {p.residual[0]:.2e}, "
-                                   f"condition {p.condition[0]:.2e})",
-                                   inputs=x[None], residual=p.residual, condition=p.condition)
-            cache["pose"] = p
-            return p
+        def terms_of(xd, t):
+            def fn(p):
+                M, h, Q, _ = self.terms(p, np.broadcast_to(xd, (len(p), n)), t, _first_out=buf)
+                return M, h, Q, buf["first"], buf["dissipated"], buf["work"]
+            return fn
 
         def rhs(t, y):
             x, xd = y[:n], y[n:2 * n]
-            p = pose_at(x)
-            M, h, Q, qd = self.terms(p, xd[None], t, _first_out=cache)
+            p = tracker.at(x)
+            M, h, Q, first, diss, work = regular_limit(mech, p, tracker.first, terms_of(xd, t),
+                                                       opts)
+            buf["dissipated"], buf["work"] = diss, work
+            tracker.tangent(p, first[0])
             F = Q[0] - h[0]
-            tau = np.asarray(drive(t, x, xd), float) if drive is not None else None
-            if tau is not None:
+            tau = None
+            if drive is not None:
+                tau = np.asarray(drive(t, x, xd), float).reshape(n)
                 F = F + tau
+            if not np.all(np.isfinite(F)):
+                raise MechanismError(f"simulate: non-finite generalised force at t = {t:.6g} "
+                                     f"(drive or joint-force functions returned NaN or inf)")
             xdd = np.linalg.solve(M[0], F)
-            dw = cache["work"][0] + (float(tau @ xd) if tau is not None else 0.0)
-            return np.r_[xd, xdd, cache["dissipated"][0], dw]
+            dw = buf["work"][0] + (float(tau @ xd) if tau is not None else 0.0)
+            return np.r_[xd, xdd, buf["dissipated"][0], dw]
 
-        import scipy.integrate as si
-        from scipy.integrate._ivp.ivp import METHODS
-
-        from .solver import SolverOptions
-        if method not in METHODS:
-            raise MechanismError(f"simulate: method {method!r} unknown; scipy offers "
-                                 f"{', '.join(METHODS)}")
-        limit = SolverOptions().cond_limit
         y0 = np.r_[x0, xd0, 0.0, 0.0]
-        solver = METHODS[method](rhs, t_span[0], y0, t_span[1], rtol=rtol, atol=atol, **ivp_kw)
-        ts, ys, dense = [t_span[0]], [y0], []
-        status, message = "completed", "reached the end of the time span"
-        while solver.status == "running":
-            try:
-                solver.step()
-            except ClosureError as e:      # a stage beyond a fold of the loop equations
-                status, message = "dead point", str(e)
-                break
-            if solver.status == "failed":
-                raise ClosureError(f"simulate: the integrator failed at t = {solver.t}")
-            dense.append(solver.dense_output())
-            ts.append(solver.t)
-            ys.append(solver.y.copy())
-            if stop_at_dead_point and pose_at(solver.y[:n]).condition[0] > limit:
-                status = "dead point"
-                message = f"condition number above {limit:.0e} at t = {solver.t:.6g}"
-                break
-        ts = np.array(ts)
-        if t_eval is None:
-            t_out, Y = ts, np.array(ys).T
-        else:
-            t_out = np.asarray(t_eval, float)
-            t_out = t_out[t_out <= ts[-1] + 1e-12 * max(1.0, abs(ts[-1]))]
-            seg = np.clip(np.searchsorted(ts, t_out, side="right") - 1, 0, len(dense) - 1)
-            Y = np.array([dense[k](tt) if dense else y0 for k, tt in zip(seg, t_out)]).T
-        sol = si._ivp.ivp.OdeResult(t=t_out, y=Y, status=0 if status == "completed" else 1,
-                                    message=message, success=True, nfev=solver.nfev,
-                                    t_end=ts[-1])
-        X, XD = sol.y[:n].T, sol.y[n:2 * n].T
-        _, pose = mech.sweep(X, return_pose=True) if len(X) > 1 else (None, mech.solve(X[0]))
-        if len(pose) != len(X):
-            raise ClosureError("simulate: the loops could not be closed along the trajectory")
+        run = integrate(rhs, tracker, (t0, t1), y0, method=method, rtol=rtol, atol=atol,
+                        stop_at_dead_point=stop_at_dead_point, cond_limit=opts.cond_limit,
+                        ivp_kw=ivp_kw)
+        t_out = None
+        if t_eval is not None:
+            t_out = np.asarray(t_eval, float).ravel()
+            t_end = run["t"][-1]
+            t_out = t_out[t_out <= t_end + 1e-12 * max(1.0, abs(t_end))]
+        t_out, Y, pose = poses_at(mech, run, t_out, opts)
+        from .integrate import IntegrationResult
+        sol = IntegrationResult(t=t_out, y=Y, status=0 if run["status"] == "completed" else 1,
+                                message=run["message"], success=True, nfev=run["nfev"],
+                                steps=run["steps"], t_end=float(run["t"][-1]))
+        X, XD = Y[:n].T, Y[n:2 * n].T
         en = self.energy(pose, XD)
-        out = pd.DataFrame({"t": sol.t})
+        for i in np.nonzero(pose.condition > TANGENT_COND)[0]:     # singular rows: the limit
+            k = min(np.searchsorted(run["t"], t_out[i], side="right") - 1, len(run["t"]) - 1)
+            lim = regular_limit(mech, _one(pose, i), run["tangents"][k],
+                                lambda p: tuple(self.energy(p, np.broadcast_to(XD[i], (len(p), n)))
+                                                [key] for key in ("kinetic", "gravity", "spring",
+                                                                  "total")), opts)
+            for key, v in zip(("kinetic", "gravity", "spring", "total"), lim):
+                en[key][i] = v[0]
+        out = pd.DataFrame({"t": t_out})
         for k, lab in enumerate(mech.input_labels()):
             out[lab] = X[:, k]
             out[f"rate:{lab}"] = XD[:, k]
@@ -407,10 +433,50 @@ class Dynamics:
         out["kinetic"] = en["kinetic"]
         out["potential"] = en["gravity"] + en["spring"]
         out["energy"] = en["total"]
-        out["dissipated"] = sol.y[2 * n]
-        out["work"] = sol.y[2 * n + 1]
-        out["balance"] = out.energy + out.dissipated - out.work - en["total"][0]
+        out["dissipated"] = Y[2 * n]
+        out["work"] = Y[2 * n + 1]
+        e0 = regular_limit(mech, start, tracker.first,
+                           lambda p: (self.energy(p, np.broadcast_to(xd0, (len(p), n)))["total"],),
+                           opts)[0][0]
+        out["balance"] = out.energy + out.dissipated - out.work - e0
         out["residual"] = pose.residual
         out["condition"] = pose.condition
+        out["flag"] = _row_flags(out, opts.cond_limit, rtol)
         out.attrs["ivp"] = sol
+        out.attrs["status"] = "completed" if sol.status == 0 else "dead point"
+        out.attrs["message"] = sol.message
         return out
+
+
+def _one(pose: Pose, i: int) -> Pose:
+    """Element ``i`` of a batch of poses."""
+    from .solver import _ks_take
+    return Pose(pose.mechanism, pose.inputs[i:i + 1], pose.q[i:i + 1], pose.rot[i:i + 1],
+                pose.residual[i:i + 1], pose.iterations[i:i + 1], pose.condition[i:i + 1],
+                pose.status[i:i + 1], _ks=_ks_take(pose.kinematics(), [i]))
+
+
+def _finite_vector(v, n, name):
+    try:
+        a = np.asarray(v, float).reshape(n)
+    except (TypeError, ValueError):
+        raise MechanismError(f"simulate: {name} must be {n} number(s), got {v!r}") from None
+    if not np.all(np.isfinite(a)):
+        raise MechanismError(f"simulate: {name} must be finite, got {a.tolist()}")
+    return a
+
+
+def _row_flags(out: pd.DataFrame, cond_limit: float, rtol: float) -> list:
+    """Why each output row is doubtful (empty string when it is not)."""
+    scale = (np.abs(out.kinetic).max() + np.ptp(out.potential) + np.abs(out.work).max()
+             + np.abs(out.dissipated).max())
+    tol = max(1e-6, 1e4 * rtol) * max(scale, 1e-300)
+    flags = []
+    for c, b in zip(out.condition.to_numpy(), out.balance.to_numpy()):
+        f = []
+        if c > cond_limit:
+            f.append(f"near-singular (condition {c:.2e})")
+        if abs(b) > tol:
+            f.append(f"energy balance error {b:.2e} J")
+        flags.append("; ".join(f))
+    return flags

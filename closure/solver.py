@@ -148,8 +148,9 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None):
 
     Each iteration evaluates the kinematic state once per line-search trial;
     the accepted trial's state serves the next iteration's Jacobian.  A pose is
-    converged when its residual is at rounding level (≤ 1e-14 · offset), or when the
-    Newton step computed at it is at most ``xtol`` · offset and the residual stopped
+    converged when its Newton step is below ``xtol`` · offset (or below what rounding of
+    the residual explains, 1e-15 · offset / σ_min, near a singular configuration)
+    and its residual is at rounding level (≤ 1e-14 · offset) or stopped
     falling; the residual and condition number reported are those of the state
     returned.
 
@@ -164,12 +165,13 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None):
     t = mech.tree
     offset = 1.0 + float(np.linalg.norm(t.centre)) / t.scale   # digits lost to the origin
     floor, xtol = 1e-14 * offset, opts.xtol * offset
+    noise = 1e-15 * offset                                     # rounding in the residual
     q, rot = (a.copy() for a in state)
     B = q.shape[0]
     its = np.zeros(B, dtype=int)
     done = np.zeros(B, dtype=bool)
     cond = np.ones(B)
-    ks_all = mech.kinematic_state((q, rot), twists=unknown.size > 0)
+    ks_all = mech.kinematic_state((q, rot))
     res = _norm(mech._scaled_residual(ks_all))
     prev = np.full(B, np.inf)
     if unknown.size == 0:                        # open chain driven in every joint
@@ -190,7 +192,11 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None):
         # as the condition number allows), or steps of at most xtol that no longer
         # reduce the residual
         stalled = (its[act] > 1) & (res[act] > 0.5 * prev[act])
-        conv = ((big <= xtol) & stalled) | (res[act] <= floor)
+        # near a singular configuration a residual at rounding level still leaves a
+        # coordinate error of residual / σ_min: converged only once the step itself is
+        # what rounding in the residual explains (noise / σ_min), or below xtol
+        tol_step = np.maximum(xtol, noise * np.max(inv_s, axis=1))
+        conv = (big <= tol_step) & ((res[act] <= floor) | stalled)
         prev[act] = res[act]
         done[act[conv]] = True
         move = np.nonzero(~conv)[0]
@@ -385,6 +391,27 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
                 active[d] = False
     pose = Pose(mech, x_cur, q, rot, res, its, cond, np.zeros(B, int), _ks=ks_all)
     return pose, stop, first
+
+
+def branch_tangent(mech, pose: Pose, direction, opts: SolverOptions | None = None) -> np.ndarray:
+    """First analogs ``(nv, ni)`` of the branch through one solved ``pose``, leaving it
+    in the input ``direction`` (ni,).
+
+    At a regular pose these are the pose's own analogs.  At a singular configuration
+    (condition above ``TANGENT_COND``) they are not unique; the branch is then
+    followed by continuation a short way (1e-4, dimensionless) along ``direction``
+    and the analogs are taken there, where they are again unique."""
+    from .kinematics import analogs
+    first = analogs(mech, pose, second=False)[0][0]
+    if pose.condition[0] <= TANGENT_COND:
+        return first
+    opts = opts or SolverOptions()
+    d = np.asarray(direction, float).reshape(-1)
+    d = d / max(np.max(np.abs(d / _input_scale(mech))), 1e-300)
+    probe, stop, _ = _continue(mech, pose, pose.inputs + 1e-4 * d * _input_scale(mech), opts)
+    if stop[0]:
+        return first
+    return analogs(mech, probe, second=False)[0][0]
 
 
 def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions) -> Pose:

@@ -7,6 +7,7 @@ polynomials instead of the exact closure.
 Main names
 ----------
 fit                 knots given, adaptive knots (σ ≤ δ) or minimax n intervals
+                    (n ≤ MAX_N = 1000; adaptive fits up to MAX_ADAPTIVE = 10,000 intervals)
 fit_least_squares   knot values by least squares, with end conditions at b
 PiecewiseAnalog     ``.knots``, ``.table`` (x0, x1, k, b, c, d, sigma), ``.position``,
                     ``.velocity``, ``.acceleration`` (vectorised), ``.force``
@@ -19,7 +20,8 @@ from . import cylinder
 from .analog import ApproxError, PiecewiseAnalog, TransferFunction
 from .dynamics import TransferDynamics
 from .engine import EngineAnalogs
-from .fit import default_gamma, fit, fit_least_squares
+from .fit import MAX_ADAPTIVE, MAX_N, default_gamma, fit, fit_least_squares
 
 __all__ = ["fit", "fit_least_squares", "default_gamma", "PiecewiseAnalog", "EngineAnalogs",
-           "TransferFunction", "TransferDynamics", "ApproxError", "cylinder"]
+           "TransferFunction", "TransferDynamics", "ApproxError", "cylinder", "MAX_N",
+           "MAX_ADAPTIVE"]

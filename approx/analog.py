@@ -7,7 +7,10 @@ printed "+" is a misprint) and ``b_i = y_i − k_i x_i``; integrating (3),
 ``F'(x) = k_i x²/2 + b_i x + c_i`` and ``F(x) = k_i x³/6 + b_i x²/2 + c_i x + d_i``
 with ``c_i, d_i`` from continuity (4) and ``F(a) = f(a), F'(a) = f'(a)``.  The
 seed writes ``c_0 = f'(a), d_0 = f(a)``, true for its ``a = 0``; here the general
-``c_0 = f'(a) − A_0(a)``, ``d_0 = f(a) − B_0(a)``.
+``c_0 = f'(a) − A_0(a)``, ``d_0 = f(a) − B_0(a)``.  These global coefficients
+are what the table shows; evaluation uses the same cubics written about each
+interval's left knot (``t = x − x_i``), so that results do not depend on where
+the range lies (a fit on [1e6, 1e6 + 1] is as accurate as on [0, 1]).
 
 The error of each interval is formula (1):
 ``σ_i = sqrt(γ ∫ (F'' − f'')² dx)`` over the interval, by Gauss–Legendre
@@ -16,6 +19,7 @@ they disagree).
 """
 from __future__ import annotations
 
+import numbers
 from abc import ABC, abstractmethod
 from dataclasses import dataclass, field
 
@@ -24,54 +28,119 @@ import pandas as pd
 from numpy.polynomial.legendre import leggauss
 from scipy.integrate import quad
 
-__all__ = ["PiecewiseAnalog", "ApproxError", "TransferFunction"]
+__all__ = ["PiecewiseAnalog", "ApproxError", "TransferFunction", "interval_sigma",
+           "sigma_of_intervals", "as_real", "as_points"]
 
 
 class ApproxError(ValueError):
     """Bad input to an approximation (names the field and what was expected)."""
 
 
+def as_real(value, name: str) -> float:
+    """``value`` as a finite float, or :class:`ApproxError` naming ``name``.
+
+    Accepts Python and numpy real scalars and 0-d real arrays; rejects booleans,
+    complex numbers, strings, None, arrays of other shapes, NaN and ±inf.
+    """
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Real, np.ndarray)):
+        raise ApproxError(f"{name}: expected a finite real number, got {value!r} "
+                          f"({type(value).__name__})")
+    if isinstance(value, np.ndarray):
+        if value.shape != () or value.dtype.kind not in "iuf":
+            raise ApproxError(f"{name}: expected a finite real number, got an array of shape "
+                              f"{value.shape} and dtype {value.dtype}")
+    try:
+        v = float(value)
+    except OverflowError:
+        v = np.inf
+    if not np.isfinite(v):
+        raise ApproxError(f"{name}: expected a finite real number, got {v}")
+    return v
+
+
+def as_points(x, name: str = "x") -> np.ndarray:
+    """``x`` as a float array of any shape with finite entries, or :class:`ApproxError`
+    naming ``name`` (non-numeric, complex or non-finite values)."""
+    try:
+        arr = np.asarray(x)
+    except (TypeError, ValueError, OverflowError) as e:     # ragged sequences, huge ints
+        raise ApproxError(f"{name}: expected real numbers (a float or an array), got "
+                          f"{type(x).__name__} ({e})") from None
+    if arr.dtype.kind not in "iuf":
+        raise ApproxError(f"{name}: expected real numbers (a float or an array), got dtype "
+                          f"{arr.dtype} ({type(x).__name__})")
+    arr = arr.astype(float, copy=False)
+    if not np.all(np.isfinite(arr)):
+        bad = arr[~np.isfinite(arr)].ravel()[0]
+        raise ApproxError(f"{name}: contains non-finite values ({bad}); expected finite numbers")
+    return arr
+
+
 _GL_HI = leggauss(48)
 _GL_LO = leggauss(24)
+_NODES = np.concatenate([_GL_HI[0], _GL_LO[0]])        # both rules, evaluated in one call
+_NHI = _GL_HI[0].size
 
 
-def _gl(func, x0, x1, rule):
-    """Gauss–Legendre integrals of ``func`` over many intervals at once."""
-    t, w = rule
-    x0, x1 = np.asarray(x0, float), np.asarray(x1, float)
+def _sigma2(d2f, x0, x1, y0=None, y1=None):
+    """``∫ (chord − f'')² dx`` over intervals ``[x0, x1]`` (any broadcast shape), with one
+    call of ``d2f`` for the ends (when ``y0``/``y1`` are None) and both Gauss–Legendre
+    rules; returns ``(integral, y0, y1)``.
+
+    The chord at a node uses the node's own (rounded) abscissa, so the integrand is
+    evaluated exactly where ``d2f`` is.  When the 48- and 24-point rules disagree the
+    interval is integrated adaptively (``scipy.integrate.quad``).
+    """
+    x0, x1 = np.broadcast_arrays(np.asarray(x0, float), np.asarray(x1, float))
     h = 0.5 * (x1 - x0)
-    pts = (0.5 * (x0 + x1))[..., None] + h[..., None] * t
-    return np.sum(func(pts, x0[..., None], x1[..., None]) * w, -1) * h
-
-
-def interval_sigma(d2f, x0, x1, y0, y1, gamma):
-    """σ of intervals ``[x0, x1]`` whose chord runs from ``y0`` to ``y1`` (vectorised)."""
-    x0, x1, y0, y1 = np.broadcast_arrays(*(np.asarray(v, float) for v in (x0, x1, y0, y1)))
-
-    def integrand(x, a, b):
-        s = (x - a) / (b - a)
-        chord = y0[..., None] + s * (y1 - y0)[..., None]
-        return (chord - d2f(x)) ** 2
-
-    hi = _gl(integrand, x0, x1, _GL_HI)
-    lo = _gl(integrand, x0, x1, _GL_LO)
+    pts = (0.5 * (x0 + x1))[..., None] + h[..., None] * _NODES
+    ends = [v[..., None] for v, y in ((x0, y0), (x1, y1)) if y is None]
+    v = d2f(np.concatenate(ends + [pts], -1)) if ends else d2f(pts)
+    k = 0
+    if y0 is None:
+        y0, k = v[..., 0], k + 1
+    if y1 is None:
+        y1, k = v[..., k], k + 1
+    y0, y1 = np.broadcast_arrays(np.asarray(y0, float), np.asarray(y1, float))
+    fv = v[..., k:]
+    s = (pts - x0[..., None]) / (x1 - x0)[..., None]
+    e2 = (y0[..., None] + s * (y1 - y0)[..., None] - fv) ** 2
+    hi = np.sum(e2[..., :_NHI] * _GL_HI[1], -1) * h
+    lo = np.sum(e2[..., _NHI:] * _GL_LO[1], -1) * h
     scale = (np.maximum(np.abs(y0), np.abs(y1)) ** 2 + 1e-300) * np.abs(x1 - x0)
     atol = 1e-13 * scale
     bad = np.abs(hi - lo) > 1e-8 * np.abs(hi) + atol
     if np.any(bad):
+        hi = np.array(hi, ndmin=1)
         for idx in zip(*np.nonzero(np.atleast_1d(bad))):
-            a_, b_, ya, yb = (np.atleast_1d(v)[idx] for v in (x0, x1, y0, y1))
-            g = lambda x: (ya + (x - a_) / (b_ - a_) * (yb - ya) - float(np.asarray(d2f(np.array([x])))[0])) ** 2
-            val, _ = quad(g, a_, b_, limit=400, epsabs=float(np.atleast_1d(atol)[idx]),
-                          epsrel=1e-10)
-            np.atleast_1d(hi)[idx] = val
-    return np.sqrt(gamma * np.maximum(hi, 0.0))
+            a_, b_, ya, yb = (float(np.atleast_1d(w)[idx]) for w in (x0, x1, y0, y1))
+            g = lambda x: (ya + (x - a_) / (b_ - a_) * (yb - ya)
+                           - float(np.asarray(d2f(np.array([x])))[0])) ** 2
+            hi[idx], _ = quad(g, a_, b_, limit=400, epsabs=float(np.atleast_1d(atol)[idx]),
+                              epsrel=1e-10)
+        hi = hi.reshape(np.shape(lo))
+    return np.maximum(hi, 0.0), y0, y1
+
+
+def interval_sigma(d2f, x0, x1, y0, y1, gamma):
+    """σ of intervals ``[x0, x1]`` whose chord runs from ``y0`` to ``y1`` (vectorised):
+    formula (1), ``σ = sqrt(γ ∫ (chord − f'')² dx)``."""
+    x0, x1, y0, y1 = np.broadcast_arrays(*(np.asarray(v, float) for v in (x0, x1, y0, y1)))
+    return np.sqrt(gamma * _sigma2(d2f, x0, x1, y0, y1)[0])
+
+
+def sigma_of_intervals(d2f, x0, x1, gamma):
+    """σ of intervals ``[x0, x1]`` whose chord interpolates f'' at both ends; the ends
+    are evaluated in the same call of ``d2f`` as the quadrature nodes.  Returns
+    ``(sigma, f''(x0), f''(x1))``."""
+    i2, y0, y1 = _sigma2(d2f, x0, x1)
+    return np.sqrt(gamma * i2), y0, y1
 
 
 class TransferFunction(ABC):
     """Interface shared by exact and surrogate transfer functions of a 1-DOF loop:
     ``position(x)``, ``velocity(x)`` (first analog) and ``acceleration(x)`` (second
-    analog), each vectorised over ``x``."""
+    analog), each vectorised over ``x`` of any shape (the result has the shape of ``x``)."""
 
     @abstractmethod
     def position(self, x):
@@ -87,8 +156,27 @@ class TransferFunction(ABC):
 
     def force(self, x, xd, xdd, mass_moment):
         """Drive force of seed 004 (5): ``Q = Ψ · I · q̈_out`` with ``Ψ = f'(x)`` and
-        ``q̈_out = f'(x) ẍ + f''(x) ẋ²``; ``mass_moment`` is ``m L²`` (kg·m²)."""
-        x, xd, xdd = (np.asarray(v, float) for v in (x, xd, xdd))
+        ``q̈_out = f'(x) ẍ + f''(x) ẋ²``.
+
+        Parameters
+        ----------
+        x, xd, xdd : array_like, broadcast together
+            Input coordinate, its rate and its acceleration (m, m/s, m/s² for a slide).
+        mass_moment : float
+            ``m L²`` of the output link (kg·m²).
+
+        Returns
+        -------
+        numpy.ndarray
+            Q (N for a slide input), of the broadcast shape.
+        """
+        x, xd, xdd = (as_points(v, name) for v, name in ((x, "x"), (xd, "xd"), (xdd, "xdd")))
+        mass_moment = as_real(mass_moment, "mass_moment")
+        try:
+            x, xd, xdd = np.broadcast_arrays(x, xd, xdd)
+        except ValueError:
+            raise ApproxError(f"x, xd, xdd: shapes {x.shape}, {xd.shape}, {xdd.shape} do not "
+                              "broadcast together") from None
         psi = self.velocity(x)
         return psi * mass_moment * (psi * xdd + self.acceleration(x) * xd ** 2)
 
@@ -96,6 +184,17 @@ class TransferFunction(ABC):
 @dataclass
 class PiecewiseAnalog(TransferFunction):
     """A twice-integrated piecewise-linear acceleration analog.
+
+    On interval i, ``[x_i, x_{i+1}]``, with the local coordinate ``t = x − x_i``:
+
+        F''(x) = y_i + k_i t
+        F'(x)  = F'_i + y_i t + k_i t²/2
+        F(x)   = F_i + F'_i t + y_i t²/2 + k_i t³/6
+
+    which is the seed's cubic (3) written about the interval's left knot.  The
+    evaluation uses these local forms (accurate far from x = 0: a cubic in global
+    powers of x loses every digit at x ~ 1e6); the global coefficients ``k, b, c,
+    d`` are kept for the table and for comparison with the seed.
 
     Attributes
     ----------
@@ -110,6 +209,10 @@ class PiecewiseAnalog(TransferFunction):
         The weight used in (1); ``gamma_rule`` says where it came from.
     extrapolate : bool
         Evaluate outside ``[a, b]`` with the end intervals' cubics instead of raising.
+    fk, dfk : numpy.ndarray (n+1,)
+        ``F`` and ``F'`` at the knots (the local coefficients).  Built by
+        :meth:`from_values`; derived from ``k, b, c, d`` when the analog is
+        constructed from global coefficients.
     """
 
     knots: np.ndarray
@@ -124,37 +227,66 @@ class PiecewiseAnalog(TransferFunction):
     method: str = "interpolation"
     extrapolate: bool = False
     info: dict = field(default_factory=dict)
+    fk: np.ndarray | None = None
+    dfk: np.ndarray | None = None
+
+    def __post_init__(self):
+        x = self.knots = np.asarray(self.knots, float)
+        if self.fk is None or self.dfk is None:       # from global coefficients (3)
+            k, b, c, d = (np.asarray(v, float) for v in (self.k, self.b, self.c, self.d))
+            xl = np.r_[x[:-1], x[-1]]
+            i = np.r_[np.arange(k.size), k.size - 1]
+            self.dfk = (k[i] / 2 * xl + b[i]) * xl + c[i]
+            self.fk = ((k[i] / 6 * xl + b[i] / 2) * xl + c[i]) * xl + d[i]
 
     @classmethod
     def from_values(cls, knots, y, f_a, df_a, d2f=None, gamma=1.0, **kw) -> "PiecewiseAnalog":
-        """Build the coefficients (2)–(4) from knot values ``y`` of ``F''``."""
+        """Build the coefficients (2)–(4) from knot values ``y`` of ``F''``.
+
+        Parameters
+        ----------
+        knots : array_like (n+1,)
+            Strictly increasing.
+        y : array_like (n+1,)
+            ``F''`` at the knots.
+        f_a, df_a : float
+            ``F(a) = f(a)`` and ``F'(a) = f'(a)`` at the first knot.
+        d2f : callable, optional
+            The exact f'' for σ (formula 1); σ is NaN without it.
+        gamma : float
+            Weight of (1).
+
+        Continuity (4) is built in: ``F'`` and ``F`` at each knot accumulate the exact
+        integrals of the broken line over the intervals before it (vectorised; no
+        recursion in global powers of x).
+        """
         x = np.asarray(knots, float)
         y = np.asarray(y, float)
-        k = np.diff(y) / np.diff(x)
-        b = y[:-1] - k * x[:-1]
+        h = np.diff(x)
+        k = np.diff(y) / h
         n = k.size
-        c = np.empty(n)
-        d = np.empty(n)
-        A = lambda i, t: k[i] * t ** 2 / 2 + b[i] * t
-        Bf = lambda i, t: k[i] * t ** 3 / 6 + b[i] * t ** 2 / 2 + c[i] * t
-        c[0] = df_a - A(0, x[0])
-        d[0] = 0.0
-        d[0] = f_a - Bf(0, x[0])
-        for i in range(1, n):                     # continuity of F' and F at x_i, formula (4)
-            c[i] = (A(i - 1, x[i]) + c[i - 1]) - A(i, x[i])
-            d[i] = (Bf(i - 1, x[i]) + d[i - 1]) - (k[i] * x[i] ** 3 / 6 + b[i] * x[i] ** 2 / 2
-                                                   + c[i] * x[i])
+        # F' and F at the knots: exact integrals of the broken line, interval by interval
+        dfk = df_a + np.r_[0.0, np.cumsum(h * (y[:-1] + y[1:]) / 2)]
+        fk = f_a + np.r_[0.0, np.cumsum(h * dfk[:-1] + h * h * (2 * y[:-1] + y[1:]) / 6)]
+        # global coefficients of (3) for the table: F'' = k x + b, F' = k x²/2 + b x + c,
+        # F = k x³/6 + b x²/2 + c x + d, equal to the local forms at x_i
+        xi = x[:-1]
+        b = y[:-1] - k * xi
+        c = dfk[:-1] - (k * xi / 2 + b) * xi
+        d = fk[:-1] - ((k * xi / 6 + b / 2) * xi + c) * xi
         sigma = interval_sigma(d2f, x[:-1], x[1:], y[:-1], y[1:], gamma) if d2f is not None \
             else np.full(n, np.nan)
-        return cls(x, y, k, b, c, d, sigma, float(gamma), **kw)
+        return cls(x, y, k, b, c, d, sigma, float(gamma), fk=fk, dfk=dfk, **kw)
 
     # ---------------------------------------------------------------- evaluation
     @property
     def a(self) -> float:
+        """First knot (start of the range)."""
         return float(self.knots[0])
 
     @property
     def b_end(self) -> float:
+        """Last knot (end of the range)."""
         return float(self.knots[-1])
 
     @property
@@ -163,38 +295,38 @@ class PiecewiseAnalog(TransferFunction):
         return self.k.size
 
     def _interval(self, x):
-        x = np.asarray(x, dtype=float)
-        if not np.all(np.isfinite(x)):
-            raise ApproxError("x: contains non-finite values")
-        if not self.extrapolate:
-            lo, hi = self.knots[0], self.knots[-1]
-            out = (x < lo) | (x > hi)
-            if np.any(out):
-                bad = x[out].ravel()[0]
-                raise ApproxError(f"x = {float(bad)!r} outside [{lo}, {hi}]; set extrapolate=True to "
-                                  "evaluate the end cubics beyond the range")
-        # interval i holds [x_i, x_{i+1}); the last interval is closed at b
-        i = np.clip(np.searchsorted(self.knots, x, side="right") - 1, 0, self.n - 1)
-        return x, i
+        """``(t, i)``: the local coordinate ``x − x_i`` and the interval index of each x."""
+        x = as_points(x, "x")
+        lo, hi = self.knots[0], self.knots[-1]
+        if not self.extrapolate and x.size and (x.min() < lo or x.max() > hi):
+            bad = x[(x < lo) | (x > hi)].ravel()[0]
+            raise ApproxError(f"x = {float(bad)!r} outside [{lo}, {hi}]; set extrapolate=True to "
+                              "evaluate the end cubics beyond the range")
+        # interval i holds [x_i, x_{i+1}); the last interval is closed at b (and the end
+        # intervals extend beyond a and b when extrapolating)
+        i = np.searchsorted(self.knots[1:-1], x, side="right")
+        return x - np.take(self.knots, i), i
 
     def position(self, x):
-        """F(x), vectorised (Horner)."""
-        x, i = self._interval(x)
-        return ((self.k[i] / 6 * x + self.b[i] / 2) * x + self.c[i]) * x + self.d[i]
+        """F(x), vectorised over ``x`` of any shape (Horner in ``t = x − x_i``)."""
+        t, i = self._interval(x)
+        take = np.take
+        return (((take(self.k, i) / 6) * t + take(self.y, i) / 2) * t
+                + take(self.dfk, i)) * t + take(self.fk, i)
 
     def velocity(self, x):
         """F'(x): the first analog."""
-        x, i = self._interval(x)
-        return (self.k[i] / 2 * x + self.b[i]) * x + self.c[i]
+        t, i = self._interval(x)
+        return (np.take(self.k, i) / 2 * t + np.take(self.y, i)) * t + np.take(self.dfk, i)
 
     def acceleration(self, x):
         """F''(x): the second (acceleration) analog."""
-        x, i = self._interval(x)
-        return self.k[i] * x + self.b[i]
+        t, i = self._interval(x)
+        return np.take(self.k, i) * t + np.take(self.y, i)
 
     @property
     def table(self) -> pd.DataFrame:
-        """One row per interval: ``x0, x1, k, b, c, d, sigma``."""
+        """One row per interval: ``x0, x1, k, b, c, d, sigma`` (global coefficients of (3))."""
         return pd.DataFrame({"x0": self.knots[:-1], "x1": self.knots[1:], "k": self.k,
                              "b": self.b, "c": self.c, "d": self.d, "sigma": self.sigma})
 

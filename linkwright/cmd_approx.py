@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 
 from approx import ApproxError, EngineAnalogs, cylinder, fit, fit_least_squares
+from approx.fit import MAX_N
 
 from .mechspec import build_mechanism
 from .output import Outputs, Report
@@ -23,8 +24,16 @@ def _source(study: Study, sec: Study, a, b):
                 (lambda x: cylinder.dpsi31(x, B, B0, B3)), "closed form (seed 004)", B3)
     mech = build_mechanism(study.section("mechanism"))
     o = sec.section("output")
-    ex = EngineAnalogs(mech, o.get("joint", "str"), a, b, index=o.get("index", "int", 0),
-                       offset=o.get("offset", "float", 0.0), sign=o.get("sign", "float", 1.0))
+    try:
+        ex = EngineAnalogs(mech, o.get("joint", "str"), a, b, index=o.get("index", "int", 0),
+                           offset=o.get("offset", "float", 0.0), sign=o.get("sign", "float", 1.0))
+    except ApproxError as e:
+        key = str(e).split(":", 1)[0]
+        if key in ("joint", "index", "offset", "sign"):
+            raise o.error(key, str(e)) from None
+        if key == "mechanism":
+            raise study.error("mechanism", str(e)) from None
+        raise sec.error("b" if key == "a, b" else "a", str(e)) from None
     return ex.position, ex.velocity, ex.acceleration, "closure engine", None
 
 
@@ -41,7 +50,7 @@ def run(study: Study, out: Outputs, progress) -> dict:
     if given[0] == "delta":
         kw["delta"] = sec.get("delta", low=1e-12)
     elif given[0] == "n":
-        kw["n"] = sec.get("n", "int", low=1, high=1000)
+        kw["n"] = sec.get("n", "int", low=1, high=MAX_N)
     else:
         kw["knots"] = sec.get("knots", "vec")
     progress(f"fitting the acceleration analog on [{a}, {b}] ({given[0]})")
@@ -49,7 +58,9 @@ def run(study: Study, out: Outputs, progress) -> dict:
         an = fit(f, df, d2f, a, b, **kw)
         ls = fit_least_squares(f, df, d2f, an.knots, gamma=an.gamma)
     except ApproxError as e:
-        raise sec.error(given[0], str(e)) from None
+        key = str(e).split(":", 1)[0]
+        raise sec.error(key if key in ("gamma", "knots", "delta", "n") else given[0],
+                        str(e)) from None
     out.add_csv("coefficients.csv", an.table)
     out.add_csv("coefficients_least_squares.csv", ls.table)
     x = np.linspace(a, b, 301)

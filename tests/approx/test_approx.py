@@ -166,3 +166,43 @@ def test_surrogate_stands_in_for_the_exact_closure_in_dynamics():
     assert np.abs(fwd.balance).max() < 1e-6 * max(1.0, fwd.energy.abs().max())
     with pytest.raises(ApproxError, match="TransferFunction"):
         TransferDynamics(lambda x: x, I3)
+
+
+def test_far_from_the_origin_is_as_accurate_as_near_it():
+    # issue 11: the cubics evaluated in global powers of x gave max |F − f| = 161 here
+    an = fit(np.sin, np.cos, lambda x: -np.sin(x), 1e6, 1e6 + 1, n=4)
+    x = np.linspace(1e6, 1e6 + 1, 2001)
+    L, e2 = 1.0, np.sqrt(np.sum(an.sigma ** 2) / an.gamma)
+    # e = F − f, e(a) = e'(a) = 0: |e| ≤ sqrt(L³/3)·sqrt(Σσ²/γ), |e'| ≤ sqrt(L)·sqrt(Σσ²/γ)
+    assert np.abs(an.position(x) - np.sin(x)).max() <= np.sqrt(L ** 3 / 3) * e2
+    assert np.abs(an.velocity(x) - np.cos(x)).max() <= np.sqrt(L) * e2
+    assert list(an.table.columns) == ["x0", "x1", "k", "b", "c", "d", "sigma"]
+
+
+@pytest.mark.parametrize("shift", [1.0, 1e3, 123456.789, 1e6, -1e6])
+def test_shift_invariance_up_to_1e6(shift):
+    f, df, d2f = np.sin, np.cos, lambda x: -np.sin(x)
+    g, dg, d2g = (lambda x: f(x - shift)), (lambda x: df(x - shift)), (lambda x: d2f(x - shift))
+    u = np.array([0.0, 0.2, 0.45, 0.8, 1.0])
+    t = np.linspace(0, 1, 1001)
+    rel = lambda A, B: np.abs(A - B).max() / np.abs(B).max()
+    for ls, build in ((False, lambda F, D, D2, k: fit(F, D, D2, k[0], k[-1], knots=k)),
+                      (True, lambda F, D, D2, k: fit_least_squares(F, D, D2, k))):
+        ref, moved = build(f, df, d2f, u), build(g, dg, d2g, u + shift)
+        for m in ("position", "velocity", "acceleration"):
+            assert rel(getattr(moved, m)(t + shift), getattr(ref, m)(t)) <= 1e-9, m
+        if not ls:
+            assert np.all(np.abs(moved.sigma - ref.sigma) <= 1e-9 * ref.sigma)
+        else:
+            # least squares: every f'' value entering the solve is taken at an abscissa
+            # rounded to eps = ulp(1e6) = 1.2e-10, so the knot values move by ~eps |f'''| and
+            # sigma (= sqrt(gamma h) * rms of F'' - f'') by up to sqrt(gamma h) 2 eps |f'''|,
+            # with |f'''| <= 1 here
+            eps = np.spacing(abs(shift) + 1.0)
+            tol = 1e-9 * ref.sigma + 2 * np.sqrt(ref.gamma * np.diff(u)) * eps
+            assert np.all(np.abs(moved.sigma - ref.sigma) <= tol)
+        # the table keeps the seed's global coefficients (k x + b = F'' up to the rounding
+        # of their cancellation)
+        x0, k, b = moved.knots[:-1], moved.k, moved.b
+        assert np.all(np.abs(k * x0 + b - moved.acceleration(x0))
+                      <= 1e-13 * (np.abs(k * x0) + np.abs(b)))

@@ -15,9 +15,12 @@ stiffness_indices       the report's indices with their units, as a table
 Hexapod                 legs, P, stiffness, compliance, leg forces, loaded stiffness, maps
 design_leg_stiffness    convex (LMI) allocation of leg stiffness with cvxpy
 report                  Markdown + CSV stiffness report
+StiffnessError          bad input (names the argument and the expected shape); its subclass
+                        SingularPoseError: a singular pose (gives cond(P) or cond(K))
+SingularPoseWarning     near-singular pose (leg forces, deflections amplified ~cond(P))
 """
 from .design import design_leg_stiffness
-from .errors import SingularPoseWarning, StiffnessError
+from .errors import SingularPoseError, SingularPoseWarning, StiffnessError
 from .hexapod import Hexapod, StiffnessResult
 from .matrices import (blocks, from_blocks, rotational_compliance_eigenvalues, screw_eigenvalues,
                        spring_stiffness, stiffness_indices, stiffness_matrix, transform_blocks,
@@ -35,5 +38,6 @@ __all__ = [
     "to_moment_first", "from_moment_first", "spring_stiffness", "stiffness_matrix",
     "transform_stiffness", "transform_blocks", "blocks", "stiffness_indices", "from_blocks", "screw_eigenvalues",
     "translational_eigenvalues", "rotational_compliance_eigenvalues", "Hexapod",
-    "StiffnessResult", "design_leg_stiffness", "report", "plot_map", "StiffnessError", "SingularPoseWarning",
+    "StiffnessResult", "design_leg_stiffness", "report", "plot_map", "StiffnessError", "SingularPoseError",
+    "SingularPoseWarning",
 ]

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import StiffnessError
+from .validate import number, transform
 
 __all__ = ["design_leg_stiffness", "DesignResult"]
 
@@ -47,17 +48,43 @@ def design_leg_stiffness(hexapod, poses, budget: float, *, k_min: float = 0.0,
     Parameters
     ----------
     hexapod : Hexapod
-    poses : array_like, shape (B, 4, 4)
+        Its leg stiffnesses are ignored (only the geometry is used).
+    poses : array_like, shape (4, 4) or (B, 4, 4)
+        Design poses of the platform in the base frame.
     budget : float
-        Total stiffness available (N/m).
+        Total stiffness available (N/m), positive.
+    k_min : float
+        Smallest stiffness of a leg (N/m), non-negative.
+    solver : str, optional
+        A cvxpy solver name installed here (default: cvxpy's choice).
+
+    Returns
+    -------
+    DesignResult
+
+    Raises
+    ------
+    StiffnessError
+        Bad input (naming the argument), an unknown solver, or a solver failure.
     """
     import cvxpy as cp
 
-    T = np.asarray(poses, dtype=float)
+    from .hexapod import Hexapod
+
+    if not isinstance(hexapod, Hexapod):
+        raise StiffnessError(f"hexapod: expected a Hexapod, got {type(hexapod).__name__}")
+    T = transform(poses, "poses")
     if T.ndim == 2:
         T = T[None]
-    if not (np.isfinite(budget) and budget > 0):
-        raise StiffnessError(f"budget: expected a positive total stiffness (N/m), got {budget}")
+    if T.ndim != 3 or T.shape[0] == 0:
+        raise StiffnessError(f"poses: expected one pose (4, 4) or a batch (B, 4, 4) with B ≥ 1, "
+                             f"got shape {T.shape}")
+    budget = number(budget, "budget", positive=True, unit="N/m")
+    k_min = number(k_min, "k_min", nonnegative=True, unit="N/m")
+    if solver is not None and (not isinstance(solver, str) or
+                               solver.upper() not in cp.installed_solvers()):
+        raise StiffnessError(f"solver: expected None or one of the installed cvxpy solvers "
+                             f"{', '.join(cp.installed_solvers())}, got {solver!r}")
     n = hexapod.base.shape[0]
     if k_min * n > budget:
         raise StiffnessError(f"k_min: {n} legs × {k_min} exceeds the budget {budget}")
@@ -70,7 +97,10 @@ def design_leg_stiffness(hexapod, poses, budget: float, *, k_min: float = 0.0,
         Kn = sum(x[i] * np.outer(u[j, i], u[j, i]) for i in range(n))
         cons.append(0.5 * (Kn + Kn.T) - t * np.eye(3) >> 0)
     prob = cp.Problem(cp.Maximize(t), cons)
-    prob.solve(solver=solver)
+    try:
+        prob.solve(solver=solver)
+    except cp.error.SolverError as e:
+        raise StiffnessError(f"solver: {solver or 'the default solver'} failed ({e})") from None
     if x.value is None:
         raise StiffnessError(f"design_leg_stiffness: solver status {prob.status}")
     k = np.maximum(np.asarray(x.value) * scale, 0.0)

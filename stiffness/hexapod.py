@@ -9,9 +9,10 @@ import pandas as pd
 
 from closure.frames import exp_so3, skew
 
-from .errors import SingularPoseWarning, StiffnessError
-from .matrices import _check_points, stiffness_matrix, transform_stiffness
-from .sixvector import check_rotation
+from .errors import SingularPoseError, SingularPoseWarning, StiffnessError
+from .matrices import _congruence
+from .sixvector import shift_wrench, wrench_transform
+from .validate import as_array, broadcast, first_bad, number, points, rotation, transform, vec3
 
 __all__ = ["Hexapod", "StiffnessResult"]
 
@@ -32,8 +33,8 @@ class StiffnessResult:
         False: the unloaded (congruence) stiffness P Kθ Pᵀ; True: with the geometric
         term of the leg forces (in general not symmetric).
     cond_P : float
-        Condition number of the dimensionless leg matrix (moment rows divided by
-        the platform radius).
+        Condition number of the dimensionless leg matrix (moments about the platform
+        points' centroid divided by the platform radius; see :meth:`Hexapod.cond_P`).
     """
 
     K: np.ndarray
@@ -49,49 +50,86 @@ class Hexapod:
     Parameters
     ----------
     base_points : array_like, shape (n, 3)
-        Leg attachment points on the base, base frame (m).
+        Leg attachment points on the base, base frame (m), n ≥ 6.
     platform_points : array_like, shape (n, 3)
         Leg attachment points on the platform, platform frame (m).
     leg_stiffness : float or array_like, shape (n,)
-        Axial stiffness of each leg (N/m).
+        Axial stiffness of each leg (N/m), positive.
     singular_cond : float
-        cond(P) above which a :class:`SingularPoseWarning` is issued.
+        cond(P) above which a pose is singular: :meth:`stiffness` warns
+        (:class:`SingularPoseWarning`), :meth:`map` flags the row, and the methods
+        that invert P (:meth:`compliance`, :meth:`leg_forces`, :meth:`deflection`,
+        :meth:`loaded_stiffness`) raise :class:`SingularPoseError`.
+    warn_cond : float
+        cond(P) above which those methods warn (:class:`SingularPoseWarning`): leg
+        forces and deflections are then amplified by up to ~cond(P) and the pose is
+        near a singularity (default 1e6, at most ``singular_cond``).
 
     Notes
     -----
     ``pose`` arguments are the platform's 4x4 transform in the base frame, or a
     batch ``(B, 4, 4)``.  Unless a frame is given, results refer to the base
-    origin and base axes.
+    origin and base axes.  cond(P) is taken of P with moments about the platform
+    points' centroid divided by the platform radius, so it depends on the mechanism
+    alone (not on where the base frame is, nor on the length unit); every length
+    tolerance is relative to the model's size.
+
+    Raises
+    ------
+    StiffnessError
+        Wrong shapes or types, non-finite values, fewer than 6 legs, non-positive
+        leg stiffness, or all attachment points at the origin.
     """
 
     _BLOCK = 4096
+    #: a leg shorter than this fraction of the model's size has no direction
+    _ZERO_LEG = 1e-12
 
-    def __init__(self, base_points, platform_points, leg_stiffness, *, singular_cond=1e8):
-        self.base = _check_points(base_points, "base_points")
+    def __init__(self, base_points, platform_points, leg_stiffness, *, singular_cond=1e8,
+                 warn_cond=1e6):
+        self.base = points(base_points, "base_points")
         n = self.base.shape[0]
         if n < 6:
             raise StiffnessError(f"base_points: a hexapod needs at least 6 legs, got {n}")
-        self.platform = _check_points(platform_points, "platform_points", n)
-        try:
-            k = np.broadcast_to(np.asarray(leg_stiffness, dtype=float), (n,)).copy()
-        except (TypeError, ValueError):
+        self.platform = points(platform_points, "platform_points", n)
+        k = as_array(leg_stiffness, "leg_stiffness",
+                     what=f"a number or {n} numbers (N/m)")
+        if k.shape not in ((), (1,), (n,)):
             raise StiffnessError(f"leg_stiffness: expected a number or {n} numbers (N/m), got "
-                                 f"{leg_stiffness!r}") from None
-        if not np.all(np.isfinite(k)) or np.any(k <= 0):
-            raise StiffnessError("leg_stiffness: expected positive finite values (N/m)")
+                                 f"shape {k.shape}")
+        k = np.broadcast_to(k, (n,)).copy()
+        if np.any(k <= 0):
+            raise StiffnessError(f"leg_stiffness: expected positive finite values (N/m), got "
+                                 f"{k[np.argmin(k)]} for leg {int(np.argmin(k)) + 1}")
         self.k = k
-        self.singular_cond = float(singular_cond)
-        self.radius = float(max(np.linalg.norm(self.platform, axis=1).max(),
-                                np.linalg.norm(self.base, axis=1).max() * 1e-3, 1e-12))
+        self.singular_cond = number(singular_cond, "singular_cond", positive=True)
+        self.warn_cond = min(number(warn_cond, "warn_cond", positive=True), self.singular_cond)
+        rb = float(np.linalg.norm(self.base, axis=1).max())
+        rp = float(np.linalg.norm(self.platform, axis=1).max())
+        #: the model's size (m): every length tolerance is relative to it
+        self.size = max(rb, rp)
+        if self.size == 0:
+            raise StiffnessError("base_points, platform_points: every attachment point is at the "
+                                 "origin; expected a hexapod of non-zero size")
+        #: centroid (platform frame) and radius of the platform points (m): the reference
+        #: and length that make P dimensionless for cond(P)
+        self._centroid = self.platform.mean(0)
+        rc = float(np.linalg.norm(self.platform - self._centroid, axis=1).max())
+        self.radius = rc if rc > 0 else self.size
 
     # ---------------------------------------------------------------- geometry
     @staticmethod
     def _pose(pose):
-        T = np.asarray(pose, dtype=float)
-        if T.shape[-2:] != (4, 4):
-            raise StiffnessError(f"pose: expected a 4x4 transform or (B, 4, 4), got {T.shape}")
-        check_rotation(T[..., :3, :3], "pose rotation")
-        return T
+        return transform(pose, "pose")
+
+    def _check_lengths(self, L):
+        """Raise if a leg has (relatively) zero length: its direction is undefined."""
+        short = L <= self._ZERO_LEG * self.size
+        if np.any(short):
+            i = first_bad(short)
+            raise StiffnessError(f"pose: leg {i[-1] + 1} has zero length ({float(L[i]):.1e} m, "
+                                 f"model size {self.size:.3g} m): its attachment points "
+                                 "coincide" + (f" (pose index {i[:-1]})" if len(i) > 1 else ""))
 
     def platform_points_world(self, pose) -> np.ndarray:
         """Platform attachment points in the base frame ``(..., n, 3)``."""
@@ -102,14 +140,12 @@ class Hexapod:
         """Leg lengths ``(..., n)`` (m) and unit vectors ``(..., n, 3)`` from base to platform."""
         d = self.platform_points_world(pose) - self.base
         L = np.linalg.norm(d, axis=-1)
-        if np.any(L < 1e-12):
-            raise StiffnessError("pose: a leg has zero length (attachment points coincide)")
+        self._check_lengths(L)
         return L, d / L[..., None]
 
     def leg_matrix(self, pose) -> np.ndarray:
         """``P`` ``(..., 6, n)``: columns are the legs' Plücker coordinates about the base origin."""
-        T = self._pose(pose)
-        return self._leg_matrix(T.reshape(-1, 4, 4)).reshape(T.shape[:-2] + (6, -1))
+        return self._P(self._pose(pose))
 
     def _leg_matrix(self, T) -> np.ndarray:
         """P for a checked batch ``(B, 4, 4)`` (the hot path of maps)."""
@@ -121,8 +157,7 @@ class Hexapod:
                    + Tc[i, 2][:, None] * p[:, 2] + Tc[i, 3][:, None] for i in range(3))
         dx, dy, dz = x - self.base[:, 0], y - self.base[:, 1], z - self.base[:, 2]
         L = np.sqrt(dx * dx + dy * dy + dz * dz)
-        if np.any(L < 1e-12):
-            raise StiffnessError("pose: a leg has zero length (attachment points coincide)")
+        self._check_lengths(L)
         P = np.empty((B, 6, p.shape[0]))
         np.divide(dx, L, out=P[:, 0])
         np.divide(dy, L, out=P[:, 1])
@@ -134,16 +169,54 @@ class Hexapod:
         return P
 
     def cond_P(self, pose) -> np.ndarray:
-        """Condition number of the dimensionless P (moment rows / platform radius)."""
-        return self._cond(self.leg_matrix(pose))
+        """Condition number of the dimensionless leg matrix at ``pose`` (see :meth:`_cond`):
+        a property of the mechanism alone, unchanged by a rigid motion of the whole
+        model or a change of length unit."""
+        T = self._pose(pose)
+        return self._cond(self._P(T), T)
 
-    def _cond(self, P) -> np.ndarray:
-        """cond of a leg matrix ``(..., 6, n)`` made dimensionless by the platform radius."""
-        Ps = P.copy()
+    def _cond(self, P, T) -> np.ndarray:
+        """cond of a leg matrix ``(..., 6, n)`` made dimensionless: moments taken about the
+        platform points' centroid and divided by the platform radius (the points' largest
+        distance from it).  Both belong to the platform, so the figure does not depend on
+        where the base frame is (a far origin would otherwise swamp the moment rows) or on
+        the length unit."""
+        return self._cond_local(self._at_centroid(P, T))
+
+    def _cond_local(self, Pc) -> np.ndarray:
+        """cond of ``Pc`` (moments about the centroid) with the moment rows / radius."""
+        Ps = Pc.copy()
         Ps[..., 3:, :] /= self.radius
         s = np.linalg.svd(Ps, compute_uv=False)
         with np.errstate(divide="ignore"):
             return np.where(s[..., -1] > 0, s[..., 0] / s[..., -1], np.inf)
+
+    def _at_centroid(self, P, T) -> np.ndarray:
+        """The legs' Plücker columns ``(..., 6, n)`` about the platform centroid (base axes).
+
+        Moments are ``(R (p_i − c)) × n_i`` from the platform's own coordinates, never
+        ``m − c × n``, which would cancel digits when the base origin is far away."""
+        q = self.platform - self._centroid                                # (n, 3)
+        R = T[..., :3, :3]
+        x, y, z = (R[..., i, 0, None] * q[:, 0] + R[..., i, 1, None] * q[:, 1]
+                   + R[..., i, 2, None] * q[:, 2] for i in range(3))       # (..., n) each
+        n = P[..., :3, :]
+        out = np.empty(P.shape)
+        out[..., :3, :] = n
+        ux, uy, uz = n[..., 0, :], n[..., 1, :], n[..., 2, :]
+        out[..., 3, :] = y * uz - z * uy
+        out[..., 4, :] = z * ux - x * uz
+        out[..., 5, :] = x * uy - y * ux
+        return out
+
+    def _local(self, T):
+        """``(S, Pc, cond)``: the wrench shift S ``(..., 6, 6)`` from the base origin to the
+        platform centroid, P about the centroid (``Pc = S P``) and cond(P).  Leg forces,
+        compliance and deflection are solved with Pc, which stays well conditioned
+        however far the base origin is, and carried back to the base origin by S."""
+        Pc = self._at_centroid(self._P(T), T)
+        centre = T[..., :3, :3] @ self._centroid + T[..., :3, 3]
+        return shift_wrench(centre), Pc, self._cond_local(Pc)
 
     def _warn(self, c, what):
         c = np.asarray(c)
@@ -152,8 +225,25 @@ class Hexapod:
                           f"{self.singular_cond:.0e}; stiffness there is unreliable",
                           SingularPoseWarning, stacklevel=3)
 
-    @staticmethod
-    def _frame(frame, pose):
+    def _regular(self, c, what) -> bool:
+        """Raise :class:`SingularPoseError` where cond(P) exceeds ``singular_cond``; return
+        whether any pose is beyond ``warn_cond`` (the caller warns with its figure)."""
+        c = np.asarray(c, dtype=float)
+        bad = ~(c <= self.singular_cond)
+        if np.any(bad):
+            i = first_bad(bad) if c.ndim else ()
+            where = f" (pose index {i})" if i else ""
+            raise SingularPoseError(f"pose: pose is singular (cond(P) = {float(c[i]):.2e} > "
+                                    f"singular_cond = {self.singular_cond:.0e}){where}; {what} "
+                                    "is undefined there")
+        return bool(np.any(c > self.warn_cond))
+
+    def _near_singular(self, c, what, figure=""):
+        warnings.warn(f"{what}: pose near singular, cond(P) = {float(np.max(c)):.2e} > "
+                      f"warn_cond = {self.warn_cond:.0e}{figure}; leg forces and deflections "
+                      "are amplified by up to ~cond(P) there", SingularPoseWarning, stacklevel=3)
+
+    def _frame(self, frame, pose):
         if frame is None:
             return np.eye(3), np.zeros(3)
         if isinstance(frame, str):
@@ -164,8 +254,12 @@ class Hexapod:
         try:
             R, p = frame
         except (TypeError, ValueError):
-            raise StiffnessError("frame: expected (R, p) with R 3x3 and p a 3-vector") from None
-        return check_rotation(R, "frame R"), np.asarray(p, dtype=float)
+            raise StiffnessError("frame: expected None, 'platform' or (R, p) with R a 3x3 "
+                                 f"rotation and p a 3-vector (m), got {type(frame).__name__}") \
+                from None
+        R, p = rotation(R, "frame R"), vec3(p, "frame p")
+        broadcast(pose=np.shape(pose)[:-2], frame_R=R.shape[:-2], frame_p=p.shape[:-1])
+        return R, p
 
     # ---------------------------------------------------------------- stiffness
     def stiffness(self, pose, frame=None) -> StiffnessResult | np.ndarray:
@@ -180,46 +274,123 @@ class Hexapod:
 
         Returns
         -------
-        StiffnessResult for one pose; for a batch, the array ``(B, 6, 6)``
+        StiffnessResult for one pose; for a batch, the array ``(..., 6, 6)``
         (use :meth:`map` for tables).
         """
         T = self._pose(pose)
-        P = self.leg_matrix(T)
-        c = self._cond(P)
+        P = self._P(T)
+        c = self._cond(P, T)
         self._warn(c, "stiffness")
-        K = stiffness_matrix(P, self.k)
         R, p = self._frame(frame, T)
         if frame is not None:
-            K = transform_stiffness(K, R, p)
-        if T.ndim == 3:
+            # legs' lines into the frame first, then the congruence: exactly T K Tᵀ, but
+            # the moment shift m − p × n is done on vectors, not on K's blocks (whose
+            # terms grow as |p|² k and would cancel far from the origin)
+            P = wrench_transform(R, p) @ P
+        K = _congruence(P, self.k)
+        if T.ndim > 2:
             return K
         return StiffnessResult(K, np.asarray(p, dtype=float), np.asarray(R), False, float(c))
 
+    def _P(self, T) -> np.ndarray:
+        """P ``(..., 6, n)`` of checked poses ``(..., 4, 4)``."""
+        return self._leg_matrix(T.reshape(-1, 4, 4)).reshape(T.shape[:-2] + (6, -1))
+
+    def _wrench(self, wrench, T) -> np.ndarray:
+        W = as_array(wrench, "wrench", (6,), what="a wrench (f, m) of shape (..., 6) (N, N·m)")
+        broadcast(pose=T.shape[:-2], wrench=W.shape[:-1])
+        return W
+
     def compliance(self, pose) -> np.ndarray:
-        """``C = K⁻¹ = P⁻ᵀ diag(1/k) P⁻¹`` (six legs: through P, never forming K)."""
-        P = self.leg_matrix(self._pose(pose))
-        if P.shape[-1] != 6:
-            return np.linalg.inv(stiffness_matrix(P, self.k))
-        Pi = np.linalg.inv(P)
-        self._warn(self._cond(P), "compliance")
+        """Compliance ``C = K⁻¹`` about the base origin (blocks m/N, rad/N, rad/(N·m)).
+
+        Six legs: ``C = P⁻ᵀ diag(1/k) P⁻¹`` (through P, never forming K), computed
+        about the platform centroid, where P is well conditioned, and carried to the
+        base origin by the wrench shift S: ``C = Sᵀ C_c S``.
+
+        Parameters
+        ----------
+        pose : array_like, shape (4, 4) or (B, 4, 4)
+
+        Returns
+        -------
+        numpy.ndarray, shape (6, 6) or (B, 6, 6)
+
+        Raises
+        ------
+        SingularPoseError
+            ``"pose is singular (cond(P) = …)"`` above ``singular_cond``; a
+            :class:`SingularPoseWarning` is issued above ``warn_cond``.
+        """
+        T = self._pose(pose)
+        S, Pc, c = self._local(T)
+        near = self._regular(c, "the compliance is")
+        C = np.swapaxes(S, -1, -2) @ self._compliance_local(Pc) @ S
+        if near:
+            self._near_singular(c, "compliance")
+        return C
+
+    def _compliance_local(self, Pc) -> np.ndarray:
+        """Compliance about the platform centroid from the regular ``Pc``."""
+        if Pc.shape[-1] != 6:
+            return np.linalg.inv(_congruence(Pc, self.k))
+        Pi = np.linalg.inv(Pc)
         return np.swapaxes(Pi, -1, -2) @ (Pi / self.k[:, None])
 
     def leg_forces(self, pose, wrench) -> np.ndarray:
         """Axial leg forces ``τ`` (N, tension positive: pulling the platform towards the
-        base) that balance an external wrench ``(f, m)`` about the base origin: ``P τ = W``."""
-        W = np.asarray(wrench, dtype=float)
-        if W.shape[-1:] != (6,):
-            raise StiffnessError(f"wrench: expected a 6-vector (f, m), got shape {W.shape}")
-        P = self.leg_matrix(self._pose(pose))
-        self._warn(self._cond(P), "leg_forces")
-        if P.shape[-1] == 6:
-            return np.linalg.solve(P, W[..., None])[..., 0]
-        return (np.linalg.pinv(P) @ W[..., None])[..., 0]
+        base) that balance an external wrench ``(f, m)`` about the base origin: ``P τ = W``
+        (more than six legs: the least-norm forces).
+
+        Parameters
+        ----------
+        pose : array_like, shape (4, 4) or (B, 4, 4)
+        wrench : array_like, shape (6,) or (B, 6)
+            ``(f, m)`` (N, N·m) about the base origin, broadcast against the poses.
+
+        Returns
+        -------
+        numpy.ndarray, shape (..., n)
+
+        Raises
+        ------
+        SingularPoseError
+            ``"pose is singular (cond(P) = …)"`` above ``singular_cond``; above
+            ``warn_cond`` a :class:`SingularPoseWarning` gives the largest force.
+        """
+        T = self._pose(pose)
+        W = self._wrench(wrench, T)
+        S, Pc, c = self._local(T)
+        near = self._regular(c, "the leg forces are")
+        Wc = S @ W[..., None]                           # the load about the centroid
+        if Pc.shape[-1] == 6:
+            tau = np.linalg.solve(Pc, Wc)[..., 0]
+        else:
+            tau = (np.linalg.pinv(Pc) @ Wc)[..., 0]
+        if near:
+            self._near_singular(c, "leg_forces", f" (largest leg force {np.abs(tau).max():.2e} N "
+                                                 f"for a load of |f| = "
+                                                 f"{np.linalg.norm(W[..., :3], axis=-1).max():.2e} N)")
+        return tau
 
     def deflection(self, pose, wrench) -> np.ndarray:
-        """Small displacement ``Δ = C W`` (m, rad) about the base origin under a wrench."""
-        W = np.asarray(wrench, dtype=float)
-        return (self.compliance(pose) @ W[..., None])[..., 0]
+        """Small displacement ``Δ = C W`` (m, rad) about the base origin under a wrench
+        ``W = (f, m)`` (N, N·m) about the base origin; shapes as :meth:`leg_forces`.
+
+        Raises
+        ------
+        SingularPoseError
+            At a singular pose (see :meth:`compliance`).
+        """
+        T = self._pose(pose)
+        W = self._wrench(wrench, T)
+        S, Pc, c = self._local(T)
+        near = self._regular(c, "the deflection is")
+        # Δ about the centroid under the load there, then back: Δ = Sᵀ Δc (work invariance)
+        Dc = self._compliance_local(Pc) @ (S @ W[..., None])
+        if near:
+            self._near_singular(c, "deflection")
+        return (np.swapaxes(S, -1, -2) @ Dc)[..., 0]
 
     def loaded_stiffness(self, pose, wrench) -> StiffnessResult:
         """Stiffness under an external wrench ``W = (f, m)`` about the base origin.
@@ -234,25 +405,40 @@ class Hexapod:
         exactly when the external moment about the reference point is zero.
         Reference: base origin and axes.  Checked against finite differences of
         the equilibrium in the tests.
+
+        Parameters
+        ----------
+        pose : array_like, shape (4, 4)
+        wrench : array_like, shape (6,)
+            ``(f, m)`` (N, N·m) about the base origin.
+
+        Raises
+        ------
+        SingularPoseError
+            At a singular pose (the leg forces are undefined).
         """
         T = self._pose(pose)
         if T.ndim != 2:
-            raise StiffnessError("loaded_stiffness: one pose at a time")
-        tau = self.leg_forces(T, wrench)
+            raise StiffnessError(f"pose: loaded_stiffness takes one pose (4, 4), got shape "
+                                 f"{T.shape}")
+        W = as_array(wrench, "wrench", (6,), ndim=1, what="a wrench (f, m) of shape (6,)")
+        P = self._P(T)
+        c = self._cond(P, T)
+        self._regular(c, "the loaded stiffness is")
+        tau = self.leg_forces(T, W)
         L, u = self.legs(T)
         r = self.platform_points_world(T)
-        P = self.leg_matrix(T)
-        K = stiffness_matrix(P, self.k)
-        G = np.zeros((6, 6))
-        for i in range(self.base.shape[0]):
-            # dr = δ + θ × r = [I, −[r]] Δ ;  du = (I − u uᵀ) dr / L
-            Dr = np.concatenate([np.eye(3), -skew(r[i])], 1)
-            Du = (np.eye(3) - np.outer(u[i], u[i])) @ Dr / L[i]
-            dN = np.concatenate([Du, skew(r[i]) @ Du - skew(u[i]) @ Dr], 0)
-            G += tau[i] * dN
+        K = _congruence(P, self.k)
+        # dr = δ + θ × r = [I, −[r]] Δ ;  du = (I − u uᵀ) dr / L ;
+        # dN = (du, [r] du − [u] dr), all legs at once: (n, 3, 6)
+        n = r.shape[0]
+        Dr = np.concatenate([np.broadcast_to(np.eye(3), (n, 3, 3)), -skew(r)], 2)
+        Du = (np.eye(3) - u[:, :, None] * u[:, None, :]) @ Dr / L[:, None, None]
+        dN = np.concatenate([Du, skew(r) @ Du - skew(u) @ Dr], 1)
+        G = np.einsum("i,ijk->jk", tau, dN)
         # held wrench about the carried reference point: m' = m − δ × f adds [f] δ
-        G[3:, :3] += skew(np.asarray(wrench, dtype=float)[:3])
-        return StiffnessResult(K + G, np.zeros(3), np.eye(3), True, float(self._cond(P)))
+        G[3:, :3] += skew(W[:3])
+        return StiffnessResult(K + G, np.zeros(3), np.eye(3), True, float(c))
 
     # ---------------------------------------------------------------- maps
     def map(self, positions, rotations=None, frame: str | None = "platform") -> pd.DataFrame:
@@ -275,8 +461,10 @@ class Hexapod:
             (rad/(N·m), largest rotational compliance eigenvalue), ``cond_P`` and
             ``singular`` (cond_P above the limit).
         """
-        pos = _check_points(positions, "positions")
-        rv = np.zeros((1, 3)) if rotations is None else _check_points(rotations, "rotations")
+        if not (frame is None or isinstance(frame, str) and frame == "platform"):
+            raise StiffnessError(f"frame: expected None or 'platform', got {frame!r}")
+        pos = points(positions, "positions")
+        rv = np.zeros((1, 3)) if rotations is None else points(rotations, "rotations")
         Rm = exp_so3(rv)
         B = pos.shape[0] * rv.shape[0]
         T = np.zeros((pos.shape[0], rv.shape[0], 4, 4))
@@ -307,8 +495,10 @@ class Hexapod:
         """K ``(B, 6, 6)`` and cond(P) ``(B,)`` for a batch of poses, no warnings
         (the caller flags singular rows).  ``frame``: None (base origin) or "platform".
         ``cond=False`` skips the singular values (cond is then None)."""
-        T = self._pose(T)
-        if frame not in (None, "platform"):
+        T = transform(T, "T")
+        if T.ndim != 3:
+            raise StiffnessError(f"T: expected a batch of poses (B, 4, 4), got shape {T.shape}")
+        if not (frame is None or isinstance(frame, str) and frame == "platform"):
             raise StiffnessError(f"frame: expected None or 'platform' for a batch, got {frame!r}")
         B = T.shape[0]
         K = np.empty((B, 6, 6))
@@ -323,7 +513,7 @@ class Hexapod:
 
     def _stiffness_block(self, T, frame, cond):
         P = self._leg_matrix(T)
-        c = self._cond(P) if cond else None
+        c = self._cond(P, T) if cond else None
         if frame == "platform":
             # shift the Plücker moments to the platform origin, rotate into its axes
             Rt = np.swapaxes(T[:, :3, :3], -1, -2)
@@ -331,4 +521,4 @@ class Hexapod:
             n = np.swapaxes(P[:, :3], -1, -2)
             m = np.swapaxes(P[:, 3:], -1, -2) - np.cross(o, n)
             P = np.concatenate([Rt @ np.swapaxes(n, -1, -2), Rt @ np.swapaxes(m, -1, -2)], 1)
-        return stiffness_matrix(P, self.k), c
+        return _congruence(P, self.k), c

@@ -11,12 +11,15 @@ import numpy as np
 import pandas as pd
 import scipy.linalg
 
-from .errors import StiffnessError
-from .sixvector import SWAP, _vec3, plucker, wrench_transform
+from closure.frames import skew as _skew
+
+from .errors import SingularPoseError, StiffnessError
+from .sixvector import SWAP, plucker, wrench_transform
+from .validate import as_array, broadcast, matrix6, number, rotation, vec3
 
 __all__ = ["spring_stiffness", "stiffness_matrix", "transform_stiffness", "blocks",
            "from_blocks", "transform_blocks", "screw_eigenvalues", "translational_eigenvalues",
-           "rotational_compliance_eigenvalues", "stiffness_indices"]
+           "rotational_compliance_eigenvalues", "stiffness_indices", "compliance_of"]
 
 
 def spring_stiffness(k, directions, points) -> np.ndarray:
@@ -35,38 +38,75 @@ def spring_stiffness(k, directions, points) -> np.ndarray:
     -------
     numpy.ndarray, shape (..., 6, 6)
     """
-    N = plucker(directions, points)
+    k = as_array(k, "k", (None,), what="spring stiffnesses (..., n) (N/m)")
+    d = as_array(directions, "directions", (None, 3))
+    r = as_array(points, "points", (None, 3))
+    if d.shape[-2] != k.shape[-1] or r.shape[-2] != k.shape[-1]:
+        raise StiffnessError(f"directions, points: expected {k.shape[-1]} springs (..., "
+                             f"{k.shape[-1]}, 3) like k, got shapes {d.shape} and {r.shape}")
+    N = plucker(d, r)
     return stiffness_matrix(np.swapaxes(N, -1, -2), k)
 
 
 def stiffness_matrix(P, k) -> np.ndarray:
     """``K = P diag(k) Pᵀ`` for a leg matrix ``P`` (..., 6, n) of Plücker columns.
 
+    Parameters
+    ----------
+    P : array_like, shape (..., 6, n)
+        Leg (spring) lines' Plücker columns ``(n, r × n)`` (dimensionless, m).
+    k : array_like, shape (..., n)
+        Axial stiffnesses (N/m), finite and non-negative.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 6, 6)
+        Blocks N/m, N/rad, N·m/rad.
+
     Raises
     ------
     StiffnessError
-        If shapes disagree or any ``k`` is negative or non-finite.
+        If shapes disagree, batch shapes do not broadcast, or any entry is
+        non-finite or any ``k`` negative.
     """
-    P = np.asarray(P, dtype=float)
-    k = np.asarray(k, dtype=float)
-    if P.shape[-2] != 6:
-        raise StiffnessError(f"P: expected shape (..., 6, n), got {P.shape}")
+    P = as_array(P, "P", (6, None))
+    k = as_array(k, "k", (None,), what="stiffnesses (..., n) (N/m)")
     if k.shape[-1] != P.shape[-1]:
-        raise StiffnessError(f"k: expected {P.shape[-1]} stiffnesses, got shape {k.shape}")
-    if not np.all(np.isfinite(k)) or np.any(k < 0):
-        raise StiffnessError("k: stiffnesses must be finite and non-negative (N/m)")
-    Pk = P * k[..., None, :]
-    return np.matmul(Pk, np.swapaxes(P, -1, -2))
+        raise StiffnessError(f"k: expected {P.shape[-1]} stiffnesses (one per column of P), got "
+                             f"shape {k.shape}")
+    broadcast(P=P.shape[:-2], k=k.shape[:-1])
+    if np.any(k < 0):
+        raise StiffnessError("k: stiffnesses must be finite and non-negative (N/m), got "
+                             f"{k[np.unravel_index(np.argmin(k), k.shape)]}")
+    return _congruence(P, k)
+
+
+def _congruence(P, k) -> np.ndarray:
+    """``P diag(k) Pᵀ`` of checked arrays (the hot path of maps)."""
+    return np.matmul(P * k[..., None, :], np.swapaxes(P, -1, -2))
 
 
 def transform_stiffness(K, R, p) -> np.ndarray:
     """``K' = T K Tᵀ``: the (unloaded) stiffness in the frame with origin ``p`` and
     ``r' = R (r − p)``.  For a loaded (non-symmetric) K this holds only for
-    ``p = 0``; see :meth:`Hexapod.loaded_stiffness`."""
-    K = np.asarray(K, dtype=float)
-    if K.shape[-2:] != (6, 6):
-        raise StiffnessError(f"K: expected shape (..., 6, 6), got {K.shape}")
+    ``p = 0``; see :meth:`Hexapod.loaded_stiffness`.
+
+    Parameters
+    ----------
+    K : array_like, shape (..., 6, 6)
+        Stiffness (blocks N/m, N/rad, N·m/rad).
+    R : array_like, shape (..., 3, 3)
+        Axes of the new frame (a proper rotation).
+    p : array_like, shape (..., 3)
+        Origin of the new frame in old coordinates (m).
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 6, 6)
+    """
+    K = matrix6(K, "K")
     T = wrench_transform(R, p)
+    broadcast(K=K.shape[:-2], R_p=T.shape[:-2])
     return T @ K @ np.swapaxes(T, -1, -2)
 
 
@@ -76,28 +116,40 @@ def transform_blocks(K, R, p):
     ``K_n' = R K_n Rᵀ``, ``K_c' = R (K_c + K_n [p]) Rᵀ``,
     ``K_k' = R (K_k − [p] K_c + K_cᵀ [p] − [p] K_n [p]) Rᵀ``; equal to ``T K Tᵀ``.
 
+    Parameters
+    ----------
+    K : array_like, shape (..., 6, 6)
+        Stiffness (blocks N/m, N/rad, N·m/rad).
+    R : array_like, shape (..., 3, 3)
+        Axes of the new frame (a proper rotation).
+    p : array_like, shape (..., 3)
+        Origin of the new frame in old coordinates (m).
+
     Returns
     -------
-    (K_n', K_c', K_k')
+    (K_n', K_c', K_k') : numpy.ndarray, each (..., 3, 3)
     """
-    from closure.frames import skew
     Kn, Kc, Kk = blocks(K)
-    R = np.asarray(R, dtype=float)
-    P = skew(np.asarray(p, dtype=float))
+    R, p = rotation(R, "R"), vec3(p, "p")
+    broadcast(K=Kn.shape[:-2], R=R.shape[:-2], p=p.shape[:-1])
+    P = _skew(p)
     Rt = np.swapaxes(R, -1, -2)
     KcT = np.swapaxes(Kc, -1, -2)
     return (R @ Kn @ Rt, R @ (Kc + Kn @ P) @ Rt, R @ (Kk - P @ Kc + KcT @ P - P @ Kn @ P) @ Rt)
 
 
 def blocks(K):
-    """The blocks of (15): translational ``K_n``, coupling ``K_c``, torsional ``K_k``."""
-    K = np.asarray(K, dtype=float)
+    """The blocks of (15): translational ``K_n`` (N/m), coupling ``K_c`` (N/rad), torsional
+    ``K_k`` (N·m/rad), each ``(..., 3, 3)``, of ``K`` ``(..., 6, 6)``."""
+    K = matrix6(K, "K")
     return K[..., :3, :3], K[..., :3, 3:], K[..., 3:, 3:]
 
 
 def from_blocks(Kn, Kc, Kk) -> np.ndarray:
-    """Assemble ``[[K_n, K_c], [K_cᵀ, K_k]]``."""
-    Kn, Kc, Kk = (np.asarray(a, dtype=float) for a in (Kn, Kc, Kk))
+    """Assemble ``[[K_n, K_c], [K_cᵀ, K_k]]`` ``(..., 6, 6)`` from three ``(..., 3, 3)`` blocks."""
+    Kn, Kc, Kk = (as_array(a, n, (3, 3)) for a, n in ((Kn, "Kn"), (Kc, "Kc"), (Kk, "Kk")))
+    batch = broadcast(Kn=Kn.shape[:-2], Kc=Kc.shape[:-2], Kk=Kk.shape[:-2]) + (3, 3)
+    Kn, Kc, Kk = (np.broadcast_to(a, batch) for a in (Kn, Kc, Kk))
     top = np.concatenate([Kn, Kc], -1)
     bot = np.concatenate([np.swapaxes(Kc, -1, -2), Kk], -1)
     return np.concatenate([top, bot], -2)
@@ -105,14 +157,21 @@ def from_blocks(Kn, Kc, Kk) -> np.ndarray:
 
 def translational_eigenvalues(K) -> np.ndarray:
     """Eigenvalues of the translational block ``K_n`` (N/m), ascending, ``(..., 3)``."""
-    Kn = np.asarray(K, dtype=float)[..., :3, :3]
+    Kn = matrix6(K, "K")[..., :3, :3]
     return np.linalg.eigvalsh(0.5 * (Kn + np.swapaxes(Kn, -1, -2)))
 
 
 def rotational_compliance_eigenvalues(K) -> np.ndarray:
     """Eigenvalues of the rotational block of the compliance ``C = K⁻¹`` (rad/(N·m)),
-    ascending, ``(..., 3)``."""
-    C = np.linalg.inv(np.asarray(K, dtype=float))[..., 3:, 3:]
+    ascending, ``(..., 3)``.
+
+    Raises
+    ------
+    SingularPoseError
+        If K is singular or so near it that ``C`` would carry a relative error above
+        1e-3 (see :func:`compliance_of`).
+    """
+    C = compliance_of(K)[..., 3:, 3:]
     return np.linalg.eigvalsh(0.5 * (C + np.swapaxes(C, -1, -2)))
 
 
@@ -123,17 +182,79 @@ def screw_eigenvalues(K) -> np.ndarray:
     They come in ± pairs for a positive definite K (real: the principal screws'
     stiffnesses).  Returned sorted by real part, ``(6,)`` complex.
     """
-    K = np.asarray(K, dtype=float)
-    if K.shape != (6, 6):
-        raise StiffnessError(f"screw_eigenvalues: expected one 6x6 matrix, got {K.shape}")
+    K = matrix6(K, "K", single=True)
     lam = scipy.linalg.eigvals(K, SWAP)
     return lam[np.argsort(lam.real)]
 
 
-def stiffness_indices(K) -> pd.DataFrame:
+#: cond(K) · ε above which a compliance from K is refused (relative error above 1e-3)
+K_INVERSE_ERROR = 1e-3
+
+
+def compliance_of(K, name: str = "K") -> np.ndarray:
+    """``C = K⁻¹`` ``(..., 6, 6)`` after checking that K is far enough from singular.
+
+    K's blocks have different units, so its condition number is taken after making it
+    dimensionless with its own length ``ℓ = sqrt(tr K_k / tr K_n)`` (m):
+    ``D K D`` with ``D = diag(1, 1, 1, 1/ℓ, 1/ℓ, 1/ℓ)``; this is unchanged by a change of
+    length unit.
+
+    Raises
+    ------
+    SingularPoseError
+        ``"the stiffness is singular (cond(K) = …)"`` when ``cond(D K D) · ε > 1e-3``.
+    """
+    K = matrix6(K, name)
+    tn = np.trace(K[..., :3, :3], axis1=-2, axis2=-1)
+    tk = np.trace(K[..., 3:, 3:], axis1=-2, axis2=-1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ell = np.sqrt(np.where((tn > 0) & (tk > 0), tk / tn, 1.0))
+    d = np.concatenate([np.ones(ell.shape + (3,)), np.repeat(1 / ell[..., None], 3, -1)], -1)
+    Ks = K * d[..., :, None] * d[..., None, :]
+    s = np.linalg.svd(Ks, compute_uv=False)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        c = np.where(s[..., -1] > 0, s[..., 0] / s[..., -1], np.inf)
+    limit = K_INVERSE_ERROR / np.finfo(float).eps
+    if np.any(~(c <= limit)):
+        i = np.unravel_index(np.argmax(np.where(np.isnan(c), np.inf, c)), c.shape)
+        where = f" at index {tuple(int(j) for j in i)}" if c.ndim else ""
+        raise SingularPoseError(
+            f"{name}: the stiffness is singular (cond(K) = {float(c[i]):.2e} > {limit:.1e}, K made "
+            f"dimensionless with its length ℓ = {float(ell[i]):.3g} m){where}: the pose is "
+            "singular and the compliance is undefined")
+    Ci = np.linalg.inv(Ks)
+    return Ci * d[..., :, None] * d[..., None, :]
+
+
+def stiffness_indices(K, *, singular_cond: float = 1e8) -> pd.DataFrame:
     """The indices a report shows, one row each, never mixing units: ``index``,
-    ``value`` (array or number) and ``unit``."""
-    K = np.asarray(K, dtype=float)
+    ``value`` (array or number) and ``unit``.
+
+    Parameters
+    ----------
+    K : array_like, shape (6, 6), or StiffnessResult
+        The stiffness (blocks N/m, N/rad, N·m/rad); a :class:`StiffnessResult` also
+        brings the pose's cond(P).
+    singular_cond : float
+        cond(P) above which a result's pose counts as singular (the default of
+        :class:`Hexapod`).
+
+    Raises
+    ------
+    SingularPoseError
+        ``"pose is singular (cond(P) = …)"`` for a result above ``singular_cond``;
+        ``"the stiffness is singular (cond(K) = …)"`` when K is too near singular to
+        invert (the rotational compliance is undefined).
+    """
+    singular_cond = number(singular_cond, "singular_cond", positive=True)
+    cond_P = getattr(K, "cond_P", None)
+    if cond_P is not None:
+        if not cond_P <= singular_cond:
+            raise SingularPoseError(f"K: pose is singular (cond(P) = {cond_P:.2e} > "
+                                    f"{singular_cond:.0e}): the rotational compliance is "
+                                    "undefined")
+        K = K.K
+    K = matrix6(K, "K", single=True)
     return pd.DataFrame({
         "index": ["eigenvalues of the translational block K_n",
                   "eigenvalues of the rotational compliance",
@@ -141,10 +262,3 @@ def stiffness_indices(K) -> pd.DataFrame:
         "value": [translational_eigenvalues(K), rotational_compliance_eigenvalues(K),
                   screw_eigenvalues(K).real, float(np.linalg.norm(K[:3, 3:]))],
         "unit": ["N/m", "rad/(N·m)", "N", "N/rad"]})
-
-
-def _check_points(a, name, n=None):
-    a = _vec3(a, name)
-    if a.ndim != 2 or (n is not None and a.shape[0] != n):
-        raise StiffnessError(f"{name}: expected shape ({n or 'n'}, 3), got {a.shape}")
-    return a

@@ -22,6 +22,10 @@ def plot_map(df, index: str = "kt_min", x: str = "x", y: str = "y", path=None, *
         import matplotlib.pyplot as plt
     except ImportError as exc:  # pragma: no cover - depends on the environment
         raise ImportError("plot_map needs matplotlib: pip install 'linkwright[plot]'") from exc
+    import pandas as pd
+    if not isinstance(df, pd.DataFrame):
+        raise StiffnessError(f"df: expected the DataFrame of Hexapod.map, got "
+                             f"{type(df).__name__}")
     for col in (index, x, y):
         if col not in df.columns:
             raise StiffnessError(f"plot_map: column {col!r} not in the map; columns: "

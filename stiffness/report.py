@@ -9,7 +9,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from .errors import StiffnessError
 from .matrices import stiffness_indices
+from .validate import as_array
 
 __all__ = ["report", "write_atomic"]
 
@@ -67,8 +69,19 @@ def report(hexapod, pose, *, frame=None, wrench=None, positions=None, rotations=
     Returns
     -------
     str : the Markdown text.
+
+    Raises
+    ------
+    StiffnessError
+        Bad input, naming the argument (``SingularPoseError`` at a singular pose
+        with a load case).
     """
+    from .hexapod import Hexapod
+    if not isinstance(hexapod, Hexapod):
+        raise StiffnessError(f"hexapod: expected a Hexapod, got {type(hexapod).__name__}")
     T = hexapod._pose(pose)
+    if T.ndim != 2:
+        raise StiffnessError(f"pose: a report takes one pose (4, 4), got shape {T.shape}")
     res = hexapod.stiffness(T, frame=frame)
     K = res.K
     lines = [f"# {title}", "",
@@ -80,7 +93,8 @@ def report(hexapod, pose, *, frame=None, wrench=None, positions=None, rotations=
              f"- reference point (origin of K's frame), base coordinates: "
              f"{np.array2string(np.asarray(res.reference), precision=6)} m",
              f"- frame axes R (r' = R (r − p)):\n\n```\n{np.array2string(res.R, precision=6)}\n```",
-             f"- cond(P) (moment rows / platform radius {hexapod.radius:.4g} m): {res.cond_P:.4g}",
+             f"- cond(P) (moments about the platform centroid / platform radius "
+             f"{hexapod.radius:.4g} m): {res.cond_P:.4g}",
              "", "## Stiffness matrix K", "",
              "Blocks: translational K_n (N/m), coupling K_c (N/rad), torsional K_k (N·m/rad).", "",
              _matrix_md(K), "",
@@ -92,7 +106,7 @@ def report(hexapod, pose, *, frame=None, wrench=None, positions=None, rotations=
     csv = {"stiffness.csv": pd.DataFrame(K, columns=["dx", "dy", "dz", "tx", "ty", "tz"],
                                          index=["fx", "fy", "fz", "mx", "my", "mz"])}
     if wrench is not None:
-        W = np.asarray(wrench, dtype=float)
+        W = as_array(wrench, "wrench", (6,), ndim=1, what="a wrench (f, m) of shape (6,)")
         tau = hexapod.leg_forces(T, W)
         d = hexapod.deflection(T, W)
         lines += ["## Load case", "",

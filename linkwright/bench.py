@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from typing import Callable, Iterator
 
 import numpy as np
 
@@ -193,9 +194,6 @@ def bench_approx(quick: bool = False) -> list[str]:
 def bench_dynamics(quick: bool = False) -> list[str]:
     """Forward dynamics: wall time per simulated second, energy drift, and the closed-form
     four-bar model (Freudenstein kinematics) as the reference."""
-    import importlib.util
-    import pathlib
-
     from scipy.integrate import solve_ivp
 
     from closure import Dynamics
@@ -238,10 +236,8 @@ def bench_dynamics(quick: bool = False) -> list[str]:
                     f"{df.attrs['ivp'].nfev} | {np.abs(df.balance).max():.1e} | {err:.1e} |")
         rows.append(f"| four-bar, closed-form reference | {rtol:.0e} | {span} | {wall_ref:.2f} | "
                     f"{wall_ref / span:.2f} | {ref.nfev} | – | {err_ref:.1e} |")
-    spec = importlib.util.spec_from_file_location(
-        "crane", pathlib.Path(__file__).parents[1] / "examples" / "crane.py")
-    cr = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(cr)
+    from linkwright.examples import crane as cr
+
     dc = cr.dynamics()
     hold = dc.inverse(np.array([0.0]), cr.lifting_motion)[["drive:stroke1", "drive:stroke2"]] \
         .to_numpy()[0]
@@ -328,20 +324,51 @@ BENCHES = {"closure": bench_closure, "synthesis": bench_synthesis, "stiffness": 
            "dynamics": bench_dynamics}
 
 
+def stream(modules=None, quick: bool = False) -> Iterator[tuple[str, str, Exception | None]]:
+    """Run the benchmarks of ``modules`` (default all) one by one.
+
+    Yields
+    ------
+    (name, text, error)
+        The module, its Markdown table (or a note saying it failed) and the exception
+        (None when it ran), as soon as the module has finished; a failing module does
+        not stop the others.
+    """
+    for name in list(modules or BENCHES):
+        t0 = time.perf_counter()
+        try:
+            text = "\n".join(BENCHES[name](quick))
+        except Exception as e:  # report it, run the others
+            yield name, f"## {name}: failed\n\n{type(e).__name__}: {e}\n", e
+            continue
+        yield name, text + f"\n(benchmark wall time {time.perf_counter() - t0:.1f} s)\n", None
+
+
 def tables(modules=None, quick: bool = False) -> str:
     """The benchmark tables of ``modules`` (default all) as one Markdown text."""
     return "\n".join("\n".join(BENCHES[name](quick)) for name in (list(modules) or list(BENCHES)))
 
 
-def run(modules=None, quick: bool = False) -> int:
+def run(modules=None, quick: bool = False, write: Callable[[str], None] | None = None) -> int:
+    """Print each module's table as soon as it is done; 1 if any module failed, 2 for an
+    unknown module."""
     modules = list(modules or BENCHES)
     for name in modules:
         if name not in BENCHES:
             print(f"unknown benchmark {name!r}; available: {', '.join(BENCHES)}", file=sys.stderr)
             return 2
-    for name in modules:
-        print("\n".join(BENCHES[name](quick)))
-    return 0
+    write = write or (lambda text: print(text, flush=True))
+    failed = []
+    for name, text, error in stream(modules, quick):
+        write(text)
+        if error is not None:
+            failed.append(name)
+            print(f"benchmark {name} failed: {type(error).__name__}: {error}", file=sys.stderr,
+                  flush=True)
+    if failed:
+        print(f"{len(failed)} of {len(modules)} benchmarks failed: {', '.join(failed)}",
+              file=sys.stderr, flush=True)
+    return 1 if failed else 0
 
 
 def main(argv=None) -> int:

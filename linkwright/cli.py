@@ -1,19 +1,24 @@
 """The ``linkwright`` command: design studies from TOML files, reports, demo and benchmarks.
 
-Exit status: 0 success, 2 bad input (the message names the file and the key), 1 a
-numerical failure, 130 interrupted.  Outputs are written only when a study has
-run through, file by file with ``os.replace`` (never half-written).
+Exit status: 0 success; 2 bad input (a study file: the message names the file and the key;
+or an output folder that may not be replaced); 1 a failure while running (numerical
+trouble such as a singular matrix, or the disk: the message says what failed); 130 and
+143 interrupted by SIGINT and SIGTERM.  A run's outputs are committed as one set: written
+into a temporary folder beside the output folder and swapped in at once, so the folder
+holds either the previous set or the new one, never a mix.
 """
 from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from pathlib import Path
 
 from . import __version__
-from .output import Outputs, Progress
-from .study import Study, StudyError
+from .interrupt import catch_signals
+
+STUDY_COMMANDS = ("synth", "stiffness", "approx", "analyze")
 
 
 def _commands():
@@ -39,11 +44,17 @@ def _parser():
         s.add_argument("-o", "--out", help="output folder (default: linkwright-out/<study>)")
         s.add_argument("--quiet", action="store_true", help="no progress on stderr")
         s.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
-    d = sub.add_parser("demo", help="run every study in examples/ into an output folder")
+    d = sub.add_parser("demo", help="run every shipped example study into an output folder")
     d.add_argument("-o", "--out", default="linkwright-demo", help="output folder")
-    d.add_argument("--examples", help="folder of study files (default ./examples)")
+    d.add_argument("--examples", help="folder of study files (default: the studies shipped "
+                                      "with linkwright; see `linkwright examples`)")
     d.add_argument("--quiet", action="store_true")
     d.add_argument("--json", action="store_true")
+    e = sub.add_parser("examples", help="list the shipped example studies, or copy them "
+                                        "into a new folder with -o")
+    e.add_argument("-o", "--out", help="copy the studies and example scripts into this new "
+                                       "(or empty) folder")
+    e.add_argument("--json", action="store_true")
     b = sub.add_parser("bench", help="speed-against-error tables of all modules")
     b.add_argument("modules", nargs="*", help="closure, synthesis, stiffness, approx, dynamics")
     b.add_argument("--quick", action="store_true", help="smaller problem sizes")
@@ -51,48 +62,152 @@ def _parser():
     return p
 
 
-def main(argv: list[str] | None = None) -> int:
-    args = _parser().parse_args(argv)
+def jsonable(value):
+    """``value`` with every float that JSON cannot carry replaced: NaN → None (null),
+    ±inf → ``"inf"`` / ``"-inf"``; numpy scalars and arrays → Python numbers and lists."""
+    if isinstance(value, dict):
+        return {str(k): jsonable(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [jsonable(v) for v in value]
+    if hasattr(value, "tolist") and not isinstance(value, (str, bytes)):
+        return jsonable(value.tolist())
+    if isinstance(value, float):
+        if math.isnan(value):
+            return None
+        if math.isinf(value):
+            return "inf" if value > 0 else "-inf"
+        return value
+    if value is None or isinstance(value, (bool, int, str)):
+        return value
+    if isinstance(value, Path):
+        return str(value)
     try:
-        if args.command in ("synth", "stiffness", "approx", "analyze"):
+        return jsonable(float(value))
+    except (TypeError, ValueError):
+        return str(value)
+
+
+def main(argv: list[str] | None = None) -> int:
+    with catch_signals():
+        state: dict = {}
+        try:
+            args = _parser().parse_args(argv)
+            if args.command is None:
+                _parser().print_help()
+                return 0
+            return _dispatch(args, state)
+        except KeyboardInterrupt as e:  # Interrupted (SIGINT, SIGTERM) or a bare Ctrl-C
+            import signal
+            for s in (signal.SIGINT, signal.SIGTERM):
+                signal.signal(s, signal.SIG_IGN)
+            name = getattr(e, "name", "SIGINT")
+            out = state.get("out")
+            if out is not None and out.committed:
+                where = f"the outputs were written to {out.folder} before it"
+            elif out is not None and out.folder.exists():
+                where = f"nothing was written ({out.folder} is as it was)"
+            else:
+                where = "nothing was written"
+            print(f"linkwright: interrupted by {name}; {where}", file=sys.stderr, flush=True)
+            return getattr(e, "exit_code", 130)
+
+
+def _dispatch(args, state: dict) -> int:
+    from .output import OutputFolderError, Outputs, OutputWriteError, Progress
+    from .study import StudyError
+
+    what = args.command + (f" {args.study}" if getattr(args, "study", None) else "")
+    try:
+        if args.command in STUDY_COMMANDS:
+            from .study import Study
             study = Study(args.study)
-            out = Outputs(args.out or Path("linkwright-out") / Path(args.study).stem)
+            out = state["out"] = Outputs(args.out or Path("linkwright-out") / Path(args.study).stem,
+                                         args.command)
+            out.check()
             summary = _commands()[args.command](study, out, Progress(args.quiet))
             written = out.commit()
             summary["files"] = [str(p) for p in written]
         elif args.command == "demo":
             from .cmd_demo import run_demo
-            summary = run_demo(args.examples, args.out, _commands(), Progress(args.quiet))
-        elif args.command == "bench":
-            from .bench import BENCHES, tables
-            unknown = [m for m in args.modules if m not in BENCHES]
-            if unknown:
-                raise StudyError("bench", None, f"unknown module {unknown[0]!r}; expected one of "
-                                 f"{', '.join(BENCHES)}")
-            text = tables(args.modules, args.quick)
-            print(text)
-            if args.out:
-                o = Outputs(args.out)
-                o.add("bench.md", text)
-                o.commit()
-            return 0
+            out = state["out"] = Outputs(args.out, "demo")
+            out.check()
+            summary = run_demo(args.examples, out, _commands(), Progress(args.quiet))
+            out.commit()
+        elif args.command == "examples":
+            return _examples(args, state)
         else:
-            _parser().print_help()
-            return 0
-    except (StudyError, ValueError, FileNotFoundError) as e:
+            return _bench(args, state)
+    except (StudyError, OutputFolderError) as e:
         print(f"linkwright: error: {e}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print("linkwright: interrupted; nothing was written", file=sys.stderr)
-        return 130
-    except Exception as e:  # numerical failures (ClosureError, solver trouble)
-        print(f"linkwright: failed: {type(e).__name__}: {e}", file=sys.stderr)
+    except OutputWriteError as e:
+        print(f"linkwright: failed: {e}", file=sys.stderr)
         return 1
-    if getattr(args, "json", False):
-        print(json.dumps(summary, indent=2, default=float))
-    elif not getattr(args, "quiet", False):
+    except Exception as e:  # numerical failures (LinAlgError, ClosureError, solver trouble)
+        print(f"linkwright: failed: {what}: {type(e).__name__}: {e}", file=sys.stderr)
+        return 1
+    if args.json:
+        print(json.dumps(jsonable(summary), indent=2, allow_nan=False))
+    elif not args.quiet:
         print(f"linkwright {args.command}: " + ", ".join(
             f"{k}={v}" for k, v in summary.items() if k not in ("command", "files")))
+    return 0
+
+
+def _examples(args, state: dict) -> int:
+    from .cmd_examples import copy_examples, list_examples
+    from .output import Outputs
+    if args.out:
+        out = state["out"] = Outputs(args.out, "examples", owned=False)
+        out.check()
+        summary = copy_examples(out)
+        summary["files"] = [str(p) for p in out.commit()]
+        if args.json:
+            print(json.dumps(jsonable(summary), indent=2, allow_nan=False))
+        else:
+            print(f"linkwright examples: copied {len(summary['studies'])} studies to {out.folder}: "
+                  f"{', '.join(summary['studies'])}")
+        return 0
+    rows = list_examples()
+    if args.json:
+        print(json.dumps(rows, indent=2))
+        return 0
+    width = max(len(r["name"]) for r in rows)
+    for r in rows:
+        print(f"{r['name']:<{width}}  {r['command']:<9}  {r['title']}")
+    print("\ncopy them out with: linkwright examples -o DIR  (then e.g. "
+          "linkwright synth DIR/seed001_rrr.toml -o out/rrr)")
+    return 0
+
+
+def _bench(args, state: dict) -> int:
+    from .bench import BENCHES, stream
+    from .output import Outputs
+    from .study import StudyError
+    unknown = [m for m in args.modules if m not in BENCHES]
+    if unknown:
+        raise StudyError("bench", None, f"unknown module {unknown[0]!r}; expected one of "
+                         f"{', '.join(BENCHES)}")
+    out = None
+    if args.out:
+        out = state["out"] = Outputs(args.out, "bench")
+        out.check()
+    modules = list(args.modules or BENCHES)
+    texts, failed = [], []
+    for name, text, error in stream(modules, args.quick):
+        print(text, flush=True)
+        texts.append(text)
+        if error is not None:
+            failed.append(name)
+            print(f"linkwright: bench {name} failed: {type(error).__name__}: {error}",
+                  file=sys.stderr, flush=True)
+    if out is not None:
+        out.add("bench.md", "\n".join(texts))
+        out.commit()
+    if failed:
+        print(f"linkwright: bench: {len(failed)} of {len(modules)} modules failed: "
+              f"{', '.join(failed)}", file=sys.stderr, flush=True)
+        return 1
     return 0
 
 

@@ -1,39 +1,67 @@
-"""``linkwright demo``: every study in an examples folder into an output folder with an index."""
+"""``linkwright demo``: every study of a folder (by default the studies shipped with
+linkwright) into one output folder with an index, committed as one set."""
 from __future__ import annotations
 
 import html
 from pathlib import Path
 
+from . import examples
 from .output import Outputs
-from .study import Study
+from .study import Study, StudyError
 
 __all__ = ["run_demo", "find_examples"]
 
 
 def find_examples(folder=None) -> Path:
-    """The examples folder: the one given, else ``./examples`` (the checkout's)."""
-    p = Path(folder) if folder else Path.cwd() / "examples"
-    if not p.is_dir() or not list(p.glob("*.toml")):
-        raise FileNotFoundError(f"no study files (*.toml) in {p}; run from the linkwright "
-                                "checkout or pass --examples DIR")
+    """The folder of study files: the one given, else the studies shipped with linkwright.
+
+    Raises
+    ------
+    StudyError
+        The folder holds no ``*.toml`` study files.
+    """
+    p = Path(folder) if folder else examples.folder()
+    if not p.is_dir() or not examples.studies(p):
+        raise StudyError(p, None, "no study files (*.toml) in this folder; give a folder of "
+                         "study files with --examples DIR, or none for the shipped studies")
     return p
 
 
-def run_demo(folder, out_dir, commands, progress) -> dict:
+def run_demo(folder, out, commands: dict, progress) -> dict:
+    """Run every study of ``folder`` into ``out``: one subfolder per study and an index.
+
+    Parameters
+    ----------
+    folder : path-like or None
+        The study files; None for the shipped studies.
+    out : Outputs or path-like
+        The output set to fill (the caller commits it), or a folder to commit to here.
+    commands : dict
+        Command name → ``run(study, outputs, progress) -> summary``.
+    progress : callable
+        Progress messages.
+
+    Returns
+    -------
+    dict
+        The summary: the studies run and the output folder.
+    """
+    own = not isinstance(out, Outputs)
+    if own:
+        out = Outputs(out, "demo")
+        out.check()
     ex = find_examples(folder)
-    out_dir = Path(out_dir)
     rows = []
-    for path in sorted(ex.glob("*.toml")):
+    for path in examples.studies(ex):
         study = Study(path)
         meta = study.section("study")
         cmd = meta.get("command", "str", choices=tuple(commands))
         title = meta.get("title", "str", path.stem)
         progress(f"{path.name}: {cmd}")
-        outs = Outputs(out_dir / path.stem)
-        summary = commands[cmd](study, outs, progress)
-        outs.commit()
+        sub = Outputs(out.folder / path.stem, cmd)
+        summary = commands[cmd](study, sub, progress)
+        out.merge(sub, path.stem)
         rows.append((path.stem, title, cmd, summary))
-    index = Outputs(out_dir)
     md = ["# linkwright demo", "", "| study | command | summary |", "|---|---|---|"]
     h = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>linkwright demo</title>"
          "</head><body><h1>linkwright demo</h1><table border='1'><tr><th>study</th>"
@@ -45,7 +73,8 @@ def run_demo(folder, out_dir, commands, progress) -> dict:
         h.append(f"<tr><td><a href='{stem}/report.html'>{html.escape(title)}</a></td>"
                  f"<td>{cmd}</td><td>{html.escape(brief)}</td></tr>")
     h.append("</table></body></html>")
-    index.add("index.md", "\n".join(md) + "\n")
-    index.add("index.html", "\n".join(h))
-    index.commit()
-    return {"command": "demo", "studies": [r[0] for r in rows], "out": str(out_dir)}
+    out.add("index.md", "\n".join(md) + "\n")
+    out.add("index.html", "\n".join(h))
+    if own:
+        out.commit()
+    return {"command": "demo", "studies": [r[0] for r in rows], "out": str(out.folder)}

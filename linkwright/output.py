@@ -1,19 +1,28 @@
-"""Outputs of a command: built in memory, then written atomically into the output folder,
-and reports rendered as Markdown and as one self-contained HTML page."""
+"""Outputs of a command: built in memory, then committed as one set (written into a
+temporary folder beside the output folder and swapped in at once), and reports rendered as
+Markdown and as one self-contained HTML page."""
 from __future__ import annotations
 
 import base64
+import errno
 import html
 import io
+import json
 import os
-import shutil
 import sys
-import tempfile
 from pathlib import Path
 
 import pandas as pd
 
-__all__ = ["Outputs", "Report", "Progress", "have_matplotlib"]
+from . import __version__
+from .atomic import make_parents, make_temp_dir, remove_empty, remove_tree, swap_in
+from .interrupt import held_signals
+
+__all__ = ["Outputs", "OutputFolderError", "OutputWriteError", "Report", "Progress",
+           "have_matplotlib", "MARKER"]
+
+#: the file that marks a folder as a linkwright output set (it lists the set's entries)
+MARKER = ".linkwright.json"
 
 
 def have_matplotlib() -> bool:
@@ -24,15 +33,92 @@ def have_matplotlib() -> bool:
     return True
 
 
-class Outputs:
-    """Files to write into ``folder``.  Nothing touches the disk until :meth:`commit`,
-    which writes everything into a temporary folder beside the target and then moves
-    each file into place with ``os.replace``; an error or Ctrl-C before that leaves
-    the folder as it was."""
+class OutputFolderError(ValueError):
+    """The output folder cannot take the outputs: it is a file, the current folder, or it
+    holds files linkwright did not write.  Nothing was written."""
 
-    def __init__(self, folder):
+    def __init__(self, folder, message: str):
+        self.folder = str(folder)
+        super().__init__(f"output folder {folder}: {message}")
+
+
+class OutputWriteError(OSError):
+    """Writing the outputs failed (disk full, read-only, ...); the output folder is as it was."""
+
+    def __init__(self, message: str, code: int | None = None):
+        super().__init__(message)
+        self.errno = code
+
+
+def _names(entries, limit: int = 5) -> str:
+    e = sorted(entries)
+    return ", ".join(e[:limit]) + (f" and {len(e) - limit} more" if len(e) > limit else "")
+
+
+def _read_listing(folder: Path, fd: int | None) -> tuple[set, set | None, bool]:
+    entries = set(os.listdir(folder if fd is None else fd))
+    writable = os.access(folder, os.W_OK) if fd is None else os.access(".", os.W_OK, dir_fd=fd)
+    allowed = None
+    if MARKER in entries:
+        try:
+            if fd is None:
+                text = (folder / MARKER).read_bytes()
+            else:
+                with os.fdopen(os.open(MARKER, os.O_RDONLY, dir_fd=fd), "rb") as f:
+                    text = f.read()
+            data = json.loads(text.decode("utf-8"))
+            if data.get("tool") == "linkwright" and isinstance(data.get("entries"), list):
+                allowed = {str(x) for x in data["entries"]}
+        except (OSError, ValueError, AttributeError):
+            pass
+    return entries, allowed, writable
+
+
+def _listing(folder: Path, tries: int = 100) -> tuple[set, set | None, bool]:
+    """The entries of ``folder``, those its marker lists (None: not a linkwright output set)
+    and whether it is writable, all read from one folder that was in place while they were
+    read, even if concurrent runs swap it meanwhile (where the system has ``dir_fd``)."""
+    if not (os.listdir in os.supports_fd and os.open in os.supports_dir_fd
+            and os.access in os.supports_dir_fd):
+        return _read_listing(folder, None)
+    for _ in range(tries):
+        fd = os.open(folder, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+        try:
+            out = _read_listing(folder, fd)
+            if os.path.samestat(os.fstat(fd), os.stat(folder)):
+                return out
+        finally:
+            os.close(fd)
+    raise OSError(errno.EBUSY, "the folder kept changing under concurrent runs", str(folder))
+
+
+class Outputs:
+    """Files to write into ``folder``, committed as one set.
+
+    Nothing touches the disk until :meth:`commit`, which writes every file into a
+    temporary folder beside ``folder`` and swaps it in at once: afterwards ``folder``
+    holds exactly the new set.  An error, SIGINT or SIGTERM before the swap leaves
+    ``folder`` as it was (absent if it was) and no temporary folder behind.
+
+    Parameters
+    ----------
+    folder : path-like
+        The output folder.  It must be absent, empty, or a previous linkwright output
+        set (marked by ``.linkwright.json`` and holding nothing else); it is replaced whole.
+    command : str
+        The command that makes the set (recorded in the marker).
+    owned : bool
+        False for a folder the user works in afterwards (``linkwright examples``): it
+        must be absent or empty, and gets no marker.
+    """
+
+    def __init__(self, folder, command: str = "", *, owned: bool = True):
         self.folder = Path(folder)
+        self.command = command
+        self.owned = owned
         self.files: dict[str, bytes] = {}
+        self.sets: dict[str, str] = {"": command}
+        self.committed = False
 
     def add(self, name: str, content) -> None:
         self.files[name] = content.encode("utf-8") if isinstance(content, str) else content
@@ -40,23 +126,104 @@ class Outputs:
     def add_csv(self, name: str, df: pd.DataFrame) -> None:
         self.add(name, df.to_csv(index=False))
 
-    def commit(self) -> list[Path]:
-        self.folder.mkdir(parents=True, exist_ok=True)
-        tmp = Path(tempfile.mkdtemp(prefix=".linkwright-", dir=self.folder))
+    def merge(self, other: "Outputs", prefix: str) -> None:
+        """Take the files of ``other`` into the subfolder ``prefix`` of this set (which
+        gets its own marker, so it can later be replaced on its own)."""
+        for name, data in other.files.items():
+            self.files[f"{prefix}/{name}"] = data
+        for sub, command in other.sets.items():
+            self.sets[f"{prefix}/{sub}".rstrip("/")] = command
+
+    def _target(self) -> Path:
+        return Path(os.path.realpath(self.folder))
+
+    def check(self) -> None:
+        """Raise :class:`OutputFolderError` (or :class:`OutputWriteError` for a read-only
+        folder) if the output folder cannot be replaced; call it before a long run."""
+        t = self._target()
+        cwd = Path(os.path.realpath(os.getcwd()))
+        if t == cwd or t in cwd.parents:
+            raise OutputFolderError(self.folder, "is the current folder or contains it; the "
+                                    "outputs replace their folder whole: give a subfolder")
+        self._check_replaceable(t)
+
+    def _check_replaceable(self, t: Path) -> None:
         try:
-            for name, data in self.files.items():
+            entries, allowed, writable = _listing(t)
+        except FileNotFoundError:
+            return
+        except NotADirectoryError:
+            raise OutputFolderError(self.folder, "exists and is not a folder") from None
+        if not entries:
+            return
+        if not self.owned:
+            raise OutputFolderError(self.folder, f"exists and is not empty ({_names(entries)}); "
+                                    "give a new or an empty folder")
+        if allowed is None:
+            raise OutputFolderError(self.folder, f"holds files linkwright did not write "
+                                    f"({_names(entries)}); give a new or an empty folder")
+        extra = entries - allowed - {MARKER}
+        if extra:
+            raise OutputFolderError(self.folder, "holds files that are not linkwright outputs "
+                                    f"({_names(extra)}); move them away or give another folder")
+        if not writable:
+            raise OutputWriteError(f"could not write the outputs to {self.folder}: the folder "
+                                   "is read-only; nothing was changed", errno.EACCES)
+
+    def _markers(self) -> dict[str, bytes]:
+        out = {}
+        for prefix, command in self.sets.items():
+            lead = f"{prefix}/" if prefix else ""
+            entries = sorted({n[len(lead):].split("/", 1)[0] for n in self.files
+                              if n.startswith(lead)})
+            data = {"tool": "linkwright", "version": __version__, "command": command,
+                    "entries": entries}
+            out[f"{lead}{MARKER}"] = (json.dumps(data, indent=1) + "\n").encode()
+        return out
+
+    def commit(self) -> list[Path]:
+        """Write the set and swap it in place of the output folder.
+
+        Returns
+        -------
+        list of Path
+            The files written (under the folder as given).
+
+        Raises
+        ------
+        OutputFolderError
+            The folder may not be replaced (checked again here: another run may have
+            changed it).
+        OutputWriteError
+            An operating-system error (disk full, read-only, ...); nothing was changed.
+        """
+        self.check()
+        t = self._target()
+        created, tmp = [], None
+        try:
+            created = make_parents(t.parent)
+            tmp = make_temp_dir(t.parent)
+            files = dict(self.files, **(self._markers() if self.owned else {}))
+            for name, data in files.items():
                 p = tmp / name
                 p.parent.mkdir(parents=True, exist_ok=True)
                 p.write_bytes(data)
-            out = []
-            for name in self.files:
-                dest = self.folder / name
-                dest.parent.mkdir(parents=True, exist_ok=True)
-                os.replace(tmp / name, dest)
-                out.append(dest)
-            return out
+            with held_signals():
+                swap_in(tmp, t, self._check_replaceable)
+                tmp = None
+                self.committed = True
+        except OutputWriteError:
+            raise
+        except OSError as e:
+            raise OutputWriteError(f"could not write the outputs to {self.folder}: "
+                                   f"{e.strerror or e}; nothing was changed", e.errno) from e
         finally:
-            shutil.rmtree(tmp, ignore_errors=True)
+            with held_signals():
+                if tmp is not None:
+                    remove_tree(tmp)
+                if not self.committed:
+                    remove_empty(created)
+        return [self.folder / name for name in self.files]
 
 
 class Report:

@@ -9,7 +9,7 @@ Run it to print the drive forces of a lifting motion (inverse dynamics) and a
 short free fall under gravity with the drives holding their initial forces
 (forward dynamics, with the energy balance)::
 
-    python examples/crane.py
+    python -m linkwright.examples.crane
 """
 from __future__ import annotations
 

@@ -9,7 +9,7 @@ a lever that swings about a vertical axis (R) and moves the knife.
 Two independent loops (ground–shaft–plate–U and plate–rod–lever–ground), one
 degree of freedom.  Run it to print the sweep table over one shaft turn::
 
-    python examples/swash_plate.py
+    python -m linkwright.examples.swash_plate
 """
 from __future__ import annotations
 

@@ -2,7 +2,7 @@
 
 A hydraulic cylinder pivoted on the ground at O drives a rocker of length B₃
 pivoted at A, |OA| = B₀; the cylinder's length is B + q₁.  Corrected formulas
-(shared/DESIGN.md §5):
+(seed 004 with its misprints corrected: the analog's slope, (B₀B₃)⁻¹ in (7)):
 
     q₃ = f₃(q₁) = arcsin[((B + q₁)² − B₀² − B₃²) / (2 B₀ B₃)]
     Ψ₃₁ = df₃/dq₁ = 2 (B + q₁) / (B₀ B₃ sqrt(4 − u²)),  u = ((B + q₁)² − B₀² − B₃²)/(B₀ B₃)

@@ -20,6 +20,9 @@ def _source(study: Study, sec: Study, a, b):
         B = cy.get("B", "float", cylinder.B, low=0) if cy else cylinder.B
         B0 = cy.get("B0", "float", cylinder.B0, low=0) if cy else cylinder.B0
         B3 = cy.get("B3", "float", cylinder.B3, low=0) if cy else cylinder.B3
+        for key, v in (("B0", B0), ("B3", B3)):
+            if not v > 0:
+                raise cy.error(key, f"expected a length > 0 (m), got {v}")
         return ((lambda x: cylinder.f3(x, B, B0, B3)), (lambda x: cylinder.psi31(x, B, B0, B3)),
                 (lambda x: cylinder.dpsi31(x, B, B0, B3)), "closed form (seed 004)", B3)
     mech = build_mechanism(study.section("mechanism"))

@@ -19,12 +19,17 @@ def _pose(sec):
     return T
 
 
+#: largest stiffness map one run computes in memory (about 1 KB per pose while it runs)
+MAX_MAP_POSES = 2_000_000
+
+
 def _axis(sec, key):
     v = sec.get(key, "vec", None, length=3)
     if v is None:
         return None
-    if v[2] < 1 or v[2] != int(v[2]):
-        raise sec.error(key, f"expected [from, to, count] with an integer count ≥ 1, got {list(v)}")
+    if v[2] < 1 or v[2] != int(v[2]) or v[2] > MAX_MAP_POSES:
+        raise sec.error(key, f"expected [from, to, count] with an integer count from 1 to "
+                             f"{MAX_MAP_POSES:,}, got {[float(x) for x in v]}")
     return np.linspace(v[0], v[1], int(v[2]))
 
 
@@ -71,7 +76,12 @@ def run(study: Study, out: Outputs, progress) -> dict:
         summary["max_leg_force"] = float(np.abs(tau).max())
     msec = study.section("map", required=False)
     if msec:
-        xs, ys, zs = (_axis(msec, k) for k in ("x", "y", "z"))
+        xs, ys, zs = (_axis(msec, k) for k in ("x", "y", "z"))    # each count checked first
+        counts = [1 if a is None else a.size for a in (xs, ys, zs)]
+        if np.prod(counts, dtype=float) > MAX_MAP_POSES:
+            raise msec.error("x", f"the map has {np.prod(counts, dtype=float):.3g} poses "
+                                  f"({' × '.join(map(str, counts))}); at most {MAX_MAP_POSES:,} "
+                                  "fit one run: use fewer points per axis or split the map")
         xs = xs if xs is not None else np.array([T[0, 3]])
         ys = ys if ys is not None else np.array([T[1, 3]])
         zs = zs if zs is not None else np.array([T[2, 3]])

@@ -6,7 +6,7 @@ the positions (always position 1 and two of 2, 3, 4: the screws are given from
 position 1).  The fourth ("last") position is reached from one of those three
 (the "transition" position s) by turning about axis 1 with joint 2 locked
 (and joint 3 free): axis 1 is the pure rotation that carries axis 3 from its
-s-th to its last position (L ⊥ (M_last − M_s), L ⊥ (Q_last − Q_s); DESIGN.md §5).
+s-th to its last position (L ⊥ (M_last − M_s), L ⊥ (Q_last − Q_s); the seed prints (Q₁ − Q₃) for (Q₄ − Q₃), a misprint).
 
 Counting: 3 choices of the RR triple {1, j, n} × 3 choices of the transition
 position s ∈ {1, j, n} × 2 RR solutions × 2 mechanisms = 36 variants.
@@ -32,7 +32,9 @@ from closure.frames import cross, log_so3
 
 from .errors import SynthesisError
 from .rr import _angle_about, _rot, rotation_axis_between, rr_links
-from .screw import Line, Screw
+from .screw import Line
+from .validate import array, line, number, screws as _screws, task_scale
+from .validate import transform as _transform
 
 __all__ = ["enumerate_dyads", "rrr_dyads", "verify_chain", "verify_chains", "chain_mechanism", "DYAD_COLUMNS"]
 
@@ -73,16 +75,42 @@ def _hang_chains(m: Mechanism, chains, n_links: int):
             f += 1
 
 
+_KINDS = "RPCHU"
+
+
+def _check_chain(types, lines, n: int = 3):
+    """Joint letters and Lines of an open chain of ``n`` joints (kinds R, P, C, H, U, and S
+    only where stated by the caller)."""
+    if not isinstance(types, str) or len(types) != n or any(t not in _KINDS + "S" for t in types):
+        raise SynthesisError(f"types: expected {n} joint letters from {_KINDS}S (e.g. 'RRR'), "
+                             f"got {types!r}")
+    if isinstance(lines, (str, bytes)) or not hasattr(lines, "__iter__"):
+        raise SynthesisError(f"lines: expected {n} Lines, got {type(lines).__name__}")
+    lines = list(lines)
+    if len(lines) != n:
+        raise SynthesisError(f"lines: expected {n} Lines, got {len(lines)}")
+    return types, [line(ln, f"lines[{k}]") for k, ln in enumerate(lines)]
+
+
 def chain_mechanism(types, lines) -> Mechanism:
     """The open chain ground –j1– A –j2– B –j3– body as an engine mechanism with every
-    joint an input (so the chain is driven by its joint values)."""
+    joint an input (so the chain is driven by its joint values).
+
+    Parameters
+    ----------
+    types : str
+        Three joint letters (R, P, C, H, U), ground joint first.
+    lines : sequence of three Line
+        The joint axes in the first position.
+    """
+    types, lines = _check_chain(types, lines)
     m = Mechanism(["A", "B", "body"])
     links = ["ground", "A", "B", "body"]
-    for k, (t, line) in enumerate(zip(types, lines)):
+    for k, (t, axis) in enumerate(zip(types, lines)):
         if t == "S":
             raise SynthesisError("chain_mechanism: spherical joints are verified through their "
                                  "rotation, not driven; use verify_chain with rotations")
-        m.add_joint(f"j{k + 1}", t, links[k], links[k + 1], at=_frame_of(line))
+        m.add_joint(f"j{k + 1}", t, links[k], links[k + 1], at=_frame_of(axis))
         m.add_input(f"j{k + 1}")
     return m
 
@@ -144,21 +172,55 @@ def verify_points(chains, targets, length: float = 1.0) -> np.ndarray:
 def verify_chain(types, lines, joint_values, targets, length: float = 1.0) -> float:
     """Drive the synthesised chain through its joint values with the closure engine and
     return the largest pose error over all positions: rotation (rad) or translation
-    divided by ``length`` (the positions' size)."""
-    return float(verify_chains([(types, lines, np.atleast_2d(joint_values))], targets,
-                               length)[0])
+    divided by ``length`` (the positions' size).
+
+    Parameters
+    ----------
+    types : str
+        Three joint letters (R, P, C, H, U), ground joint first.
+    lines : sequence of three Line
+        Joint axes in the first position.
+    joint_values : array_like, shape (n, 3) or (3,)
+        Joint values at each position (rad, or length for P).
+    targets : array_like, shape (n, 4, 4)
+        The body's given poses (rigid transforms).
+    length : float
+        Positive length that translation errors are divided by.
+
+    Raises
+    ------
+    SynthesisError
+        Bad input, naming the argument.
+    """
+    types, lines = _check_chain(types, lines)
+    if "S" in types:
+        raise SynthesisError("types: spherical joints are verified through their centre "
+                             "(verify_points), not driven; expected R, P, C, H or U")
+    targets = _transform(targets, "targets", batch=True)
+    n = targets.shape[0]
+    jv = array(joint_values, "joint_values", None, what=f"joint values ({n}, 3), one row per target")
+    if jv.shape == (3,) and n == 1:
+        jv = jv[None]
+    if jv.shape != (n, 3):
+        raise SynthesisError(f"joint_values: expected joint values ({n}, 3), one row per "
+                             f"target, got shape {jv.shape}")
+    length = number(length, "length", positive=True)
+    return float(verify_chains([(types, lines, jv)], targets, length)[0])
 
 
 def _check_screws(screws, n, family):
-    if len(screws) != n - 1:
-        raise SynthesisError(f"{family}: expected {n - 1} screws S_12 … S_1{n} for {n} positions, "
-                             f"got {len(screws)}")
-    out = []
-    for k, s in enumerate(screws):
-        if not isinstance(s, Screw):
-            raise SynthesisError(f"screws[{k}]: expected a Screw, got {type(s).__name__}")
-        out.append(s)
+    out = _screws(screws, "screws")
+    if len(out) != n - 1:
+        raise SynthesisError(f"screws: {family} expected {n - 1} screws S_12 … S_1{n} for {n} "
+                             f"positions, got {len(out)}")
     return out
+
+
+def _task(screws):
+    """Positions (the identity first) and the task's reach (residuals are relative to it)."""
+    T = [np.eye(4)] + [s.matrix() for s in screws]
+    _, _, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
+    return T, reach
 
 
 def rrr_dyads(screws) -> pd.DataFrame:
@@ -170,9 +232,7 @@ def rrr_dyads(screws) -> pd.DataFrame:
         S₁₂, S₁₃, S₁₄.
     """
     screws = _check_screws(screws, 4, "RRR")
-    T = [np.eye(4)] + [s.matrix() for s in screws]            # T[k]: position k+1 from 1
-    size = max(1.0, max(np.abs(t[:3, 3]).max() for t in T),
-               max(np.abs(s.point).max() for s in screws))
+    T, size = _task(screws)                                   # T[k]: position k+1 from 1
     rows, chains = [], []
     variant = 0
     for triple in ((1, 2, 3), (1, 2, 4), (1, 3, 4)):
@@ -294,12 +354,22 @@ def enumerate_dyads(family: str, screws) -> pd.DataFrame:
         ground, 3 at the body) ``j{k}_type, j{k}_ux, j{k}_uy, j{k}_uz, j{k}_x,
         j{k}_y, j{k}_z`` (axes in the first position, canonical points),
         ``residual`` (largest pose error when the engine drives the dyad through
-        all positions: rad, or length relative to the positions' size),
+        all positions: rad, or length relative to the task's reach, the size of
+        its coordinates),
         ``reason`` (why a variant degenerated, else empty), ``mechanism``
         (Fig. 1a/1b), ``rr`` (which RR solution) and the joint values
         ``q{k}_pos{p}`` (rad) at every position.
+
+    Raises
+    ------
+    SynthesisError
+        An unknown or unimplemented family, or screws that are not a sequence of
+        the right number of :class:`Screw`.
     """
-    fam = str(family).upper()
+    if not isinstance(family, str):
+        raise SynthesisError(f"family: expected a family name such as 'RRR', got "
+                             f"{type(family).__name__} {family!r}")
+    fam = family.upper()
     if fam not in FAMILY_SOLVERS:
         from .families import families
         known = families()
@@ -308,4 +378,4 @@ def enumerate_dyads(family: str, screws) -> pd.DataFrame:
                                  f"implemented: {', '.join(FAMILY_SOLVERS)}")
         raise SynthesisError(f"family {family!r}: unknown; expected one of "
                              f"{', '.join(sorted(set(known.family)))}")
-    return FAMILY_SOLVERS[fam](list(screws))
+    return FAMILY_SOLVERS[fam](_screws(screws, "screws"))

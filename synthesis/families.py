@@ -6,7 +6,7 @@ import pandas as pd
 
 __all__ = ["families", "JOINT_LETTERS"]
 
-#: seed 001's joint letters (Cyrillic) → linkwright kinds (DESIGN.md §5)
+#: seed 001's joint letters (Cyrillic) → linkwright kinds (С₂ is a spherical pair with a pin: a Hooke joint)
 JOINT_LETTERS = {"В": "R", "П": "P", "Ц": "C", "С": "S", "Г": "H", "С₂": "U"}
 
 # (families of the row, binary links of the row, N, N_max) in seed 001's own letters

@@ -20,11 +20,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from closure.frames import cross
+from closure.frames import cross, rotation
 
 from .dualquat import dq_conj, dq_from_matrix, dq_inv, dq_mul, dq_to_matrix
 from .errors import SynthesisError
 from .screw import Line, Screw, common_normal
+from .validate import number, screw, task_scale, unit, vec3
 
 __all__ = ["RRLink", "rr_links", "rotation_axis_between"]
 
@@ -46,7 +47,9 @@ class RRLink:
     fixed_angles, moving_angles : numpy.ndarray (3,)
         Joint angles at positions 1, 2, 3 (rad, zero at position 1).
     residual : float
-        Largest pose error of the link's forward kinematics at the three positions.
+        Largest pose error of the link's forward kinematics at the three positions:
+        rotation (rad) or translation relative to the task's reach (the size of its
+        coordinates, see :func:`synthesis.validate.task_scale`).
     """
 
     fixed_axis: Line
@@ -59,7 +62,9 @@ class RRLink:
     info: dict = field(default_factory=dict)
 
     def pose(self, fixed_angle: float, moving_angle: float) -> np.ndarray:
-        """Body pose (4x4, relative to position 1) at the given joint angles."""
+        """Body pose (4x4, relative to position 1) at the given joint angles (rad)."""
+        fixed_angle = number(fixed_angle, "fixed_angle", unit_="rad")
+        moving_angle = number(moving_angle, "moving_angle", unit_="rad")
         return _rot(self.fixed_axis, fixed_angle) @ _rot(self.moving_axis, moving_angle)
 
 
@@ -121,16 +126,43 @@ def rr_links(s12: Screw, s13: Screw, *, tol: float = 1e-9) -> list[RRLink]:
     SynthesisError
         When the positions coincide, when the screws are parallel (a planar
         motion: the RR links then form a two-parameter family, the circle
-        points, and are not determined), or when the problem degenerates
-        otherwise; the message names the cause and the figure.
+        points, and are not determined), when the positions are spherical (all
+        relative screws pure rotations about one point, to within the round-off
+        of the coordinates or so nearly that the links could not be trusted to
+        ``tol * 1e3``: see the notes), or when the problem degenerates otherwise;
+        the message names the cause and the figure.
+
+    Notes
+    -----
+    Spherical positions (the screws' axes concurrent, no slides: e.g. those of a
+    generating RR whose axes intersect) do not determine an RR link.  All the
+    poses then lie in the 3-dimensional space of rotations about the common point
+    O, so every quadratic motion through the three poses, and hence every RR link
+    reaching them, is spherical: there is no RR with skew axes, and every line
+    through O fixed in the body traces a circle whose axis through O completes a
+    spherical RR (a two-parameter family).  As the task approaches a spherical one
+    its own size L (the largest translation and axis distance about the point
+    nearest the axes, :func:`synthesis.validate.task_scale`) goes to zero while
+    the round-off of its coordinates stays ``ε · reach``: the axes found are then
+    accurate only to about ``ε · reach / L`` (measured: 0.3–2 times that, in
+    direction and in position relative to L).  Each link's ``info["accuracy"]``
+    is a forward-error estimate measured by re-solving the positions moved by
+    their round-off (so it also covers an ill-conditioned Bennett motion, e.g. a
+    relative screw nearly a pure rotation); above ``tol * 1e3`` rr_links raises
+    instead, naming the positions "nearly spherical" when that is the cause.  A task whose round-off is not visible in
+    its coordinates (e.g. rotations about the origin computed from points of size
+    1 with a 1e-17 remainder of translation) is, as data, a task of that tiny size:
+    its own RR links are returned (unit invariance forbids an absolute floor).
     """
+    s12, s13 = screw(s12, "s12"), screw(s13, "s13")
+    tol = number(tol, "tol", positive=True)
     T2, T3 = s12.matrix(), s13.matrix()
-    scale = max(1.0, np.abs(T2[:3, 3]).max(), np.abs(T3[:3, 3]).max(), np.abs(s12.point).max(),
-                np.abs(s13.point).max())
+    # the task's size: tolerances are relative to it (rigid motion and unit invariant)
+    c, L, reach = task_scale([T2, T3], [s12.axis, s13.axis], [s12.point, s13.point])
     for name, T in (("S12", T2), ("S13", T3)):
-        if np.abs(T - np.eye(4)).max() / scale < 1e-12:
+        if _pose_error(T, np.eye(4), reach) < 1e-12:
             raise SynthesisError(f"{name} is the identity: two of the positions coincide")
-    if np.abs(T2 - T3).max() / scale < 1e-12:
+    if _pose_error(T2, T3, reach) < 1e-12:
         raise SynthesisError("S12 equals S13: positions 2 and 3 coincide")
     for name, s in (("S12", s12), ("S13", s13)):
         if abs(s.angle) < 1e-6:
@@ -140,9 +172,8 @@ def rr_links(s12: Screw, s13: Screw, *, tol: float = 1e-9) -> list[RRLink]:
                 "translates a body only with parallel axes (a planar motion, where RR links "
                 "through three positions are not isolated); as the angle goes to zero the link "
                 f"goes to infinity (size ~ slide/angle = {size:.1e})")
-    # work in coordinates centred on the data and scaled to unit size (invariance, conditioning)
-    c = 0.5 * (s12.point + s13.point)
-    L = max(scale, 1e-300)
+    _check_spherical(c, L, reach, tol)
+    # work in coordinates centred on the task and scaled to its size (invariance, conditioning)
     C = np.eye(4)
     C[:3, 3] = -c
     S = np.diag([1 / L, 1 / L, 1 / L, 1.0])
@@ -154,12 +185,158 @@ def rr_links(s12: Screw, s13: Screw, *, tol: float = 1e-9) -> list[RRLink]:
     a, b, cc = _study(P0, P2), _study(P0, P3), _study(P2, P3)
     w2, w3 = s12.angle, s13.angle
     axes_par = abs(abs(s12.axis @ s13.axis) - 1) < 1e-10
-    if axes_par or min(abs(a), abs(b), abs(cc)) < 1e-14:
+    # Study products are the pitches of S12, S13, S23 (normalised lengths): round-off
+    # makes them ~ε·reach/L, so "zero" is relative to that
+    if not axes_par and max(abs(a), abs(b), abs(cc)) < 1e-14 * (reach / L):
+        # all three relative screws (S12, S13, S23) are pure rotations, about axes that
+        # meet pairwise: one common point (an exactly scale-free task lands here)
+        _spherical_error(c, L, reach, np.inf, "exactly")
+    if axes_par or min(abs(a), abs(b), abs(cc)) < 1e-14 * (reach / L):
         what = ("the screw axes are parallel: the motion is planar and the RR links through three "
                 "positions are not isolated (every circle point gives one)") if axes_par else \
             f"the Study products of the poses vanish (|B| = {min(abs(a), abs(b), abs(cc)):.1e})"
         raise SynthesisError(f"rr_links: degenerate positions, {what}; rotation angles "
                              f"{w2:.3g}, {w3:.3g} rad")
+    c1, c0, factors = _factors(P0, P2, P3)
+    ts = _parameters(c1, c0, P2, P3)
+    # forward-error estimate: the round-off of the coordinates (ε·reach, i.e. ε·reach/L
+    # here) times the sensitivity of the axes, measured by re-solving perturbed positions
+    acc = _accuracy(Tn @ T2 @ Ti, Tn @ T3 @ Ti, factors, L, reach)
+    _check_accuracy(acc, tol, c, L, reach, w2, w3)
+    out = []
+    for h1, h2 in factors:
+        g, _ = _axis_of_factor(h1)
+        w, _ = _axis_of_factor(h2)
+        # back to the user's coordinates
+        g = Line(g.direction, g.point * L + c)
+        w = Line(w.direction, w.point * L + c)
+        g = g.canonical()
+        w = w.canonical(g)
+        fa, ma = [0.0], [0.0]
+        for t in ts:
+            F1 = Ti @ dq_to_matrix(np.r_[t, 0, 0, 0, 0, 0, 0, 0] - h1) @ Tn
+            F2 = Ti @ dq_to_matrix(np.r_[t, 0, 0, 0, 0, 0, 0, 0] - h2) @ Tn
+            fa.append(_angle_about(g, F1))
+            ma.append(_angle_about(w, F2))
+        foot_g, foot_w = common_normal(g, w)
+        link = RRLink(g, w, float(np.linalg.norm(foot_w - foot_g)),
+                      float(np.arccos(np.clip(g.direction @ w.direction, -1, 1))),
+                      np.array(fa), np.array(ma), 0.0)
+        link.residual = max(_pose_error(link.pose(fa[k], ma[k]), T, reach)
+                            for k, T in enumerate([np.eye(4), T2, T3]))
+        if link.residual > tol * 1e3:
+            raise SynthesisError(f"rr_links: a solution misses the positions by "
+                                 f"{link.residual:.1e} (ill-conditioned positions)")
+        # a link that misses the positions is no better than its miss (relative to L)
+        link.info["accuracy"] = max(acc, link.residual * reach / L)
+        _check_accuracy(link.info["accuracy"], tol, c, L, reach, w2, w3)
+        out.append(link)
+    return out
+
+
+def _check_accuracy(acc, tol, c, L, reach, w2, w3):
+    """Raise when the RR axes are known to worse than ``tol * 1e3``: spherical positions
+    when that is the cause (the task small against its coordinates), else ill-conditioned."""
+    if acc <= tol * 1e3:
+        return
+    if reach / L > 1e3 and _EPS * reach / L > 1e-3 * acc:
+        _check_spherical(c, L, reach, 0.0, acc)
+    also = (f"; the task is also nearly spherical: its own size is {L / reach:.1e} of its "
+            f"coordinates' size {reach:.1e}, about the point "
+            f"({', '.join(f'{v:.6g}' for v in c)})") if reach / L > 1e3 else ""
+    raise SynthesisError(
+        f"rr_links: ill-conditioned positions: the RR axes would be known only to ~{acc:.1e} "
+        f"(rad, or relative to the task's size {L:.1e}): re-solving positions moved by their "
+        f"round-off moves the axes that much (near-degenerate Bennett motion: a relative "
+        f"screw nearly a pure rotation or translation, or nearly parallel axes?){also}; "
+        f"rotation angles {w2:.3g}, {w3:.3g} rad")
+
+
+_EPS = float(np.finfo(float).eps)
+
+
+def _accuracy(T2n, T3n, factors, L, reach, trials: int = 2) -> float:
+    """Forward-error estimate of the RR axes (direction in rad, position relative to the
+    task's size L), from the normalised positions ``T2n, T3n`` and their ``factors``.
+
+    The positions are known to their round-off: ε in rotation and ε·reach in
+    translation (ε·reach/L in the normalised coordinates).  They are moved by random
+    displacements of that size times an amplification (so the change is well above the
+    solve's own round-off), re-solved, and the largest change of the axes (Plücker
+    coordinates in the normalised frame) is scaled back.  A nearly spherical task
+    (L ≪ reach) gives about ε·reach/L (measured errors: 0.3–2 times that); a generic
+    one a few tens of ε; an ill-conditioned Bennett motion more.  A perturbation that
+    makes the problem degenerate gives inf."""
+    noise = _EPS * (reach / L + 1.0)
+    amp = min(1e4, 1e-7 / noise) if noise < 1e-7 else 1.0
+    rng = np.random.default_rng(0)          # deterministic: the same task, the same figure
+    P0 = dq_from_matrix(np.eye(4))
+    ref = [_pluecker(h) for pair in factors for h in pair]
+    worst = 0.0
+    for _ in range(trials):
+        P = []
+        for T in (T2n, T3n):
+            E = np.eye(4)
+            E[:3, :3] = rotation(_unit_random(rng), amp * _EPS)
+            E[:3, 3] = amp * noise * _unit_random(rng)
+            P.append(dq_from_matrix(E @ T))
+        try:
+            with np.errstate(all="raise"):
+                _, _, fac = _factors(P0, P[0], P[1])
+                got = [_pluecker(h) for pair in fac for h in pair]
+        except (SynthesisError, np.linalg.LinAlgError, FloatingPointError, ValueError):
+            return float("inf")
+        if len(got) != len(ref):
+            return float("inf")
+        for r in ref:      # the pairs may swap order: match each axis to its nearest
+            d = min(min(np.abs(r - q).max(), np.abs(r + q).max()) for q in got)
+            worst = max(worst, d)
+    return float(max(worst / amp, 32 * _EPS))
+
+
+def _unit_random(rng):
+    v = rng.normal(size=3)
+    return v / np.linalg.norm(v)
+
+
+def _pluecker(h):
+    """Unit direction and moment of the axis of a rotation factor (normalised frame)."""
+    v = h[1:4]
+    n = np.linalg.norm(v)
+    if n < 1e-300:
+        raise SynthesisError("degenerate factor")
+    return np.r_[v / n, h[5:8] / n]
+
+
+def _check_spherical(c, L, reach, tol, acc=None):
+    """Raise when the task is (nearly) spherical: its own size L is so small against the
+    size of its coordinates that the RR axes would be known to worse than ``tol * 1e3``
+    (``acc``: the measured estimate, else the round-off ratio 2 ε·reach/L)."""
+    if acc is None:
+        acc = 2 * _EPS * reach / L
+    if acc > tol * 1e3:
+        _spherical_error(c, L, reach, acc, "to within round-off" if acc > 1e-3 else "nearly")
+
+
+def _spherical_error(c, L, reach, acc, how):
+    # the centre to the coordinates' round-off (a point at the origin prints as 0, not 1e-17)
+    x, y, z = (0.0 if abs(v) <= 1e-12 * reach else float(v) for v in c)
+    size = ("the task has no length at all" if not np.isfinite(acc) else
+            f"the task's own size {L:.1e} is {L / reach:.1e} of its coordinates' size "
+            f"{reach:.1e}, so an RR link would be known only to ~{acc:.1e}")
+    raise SynthesisError(
+        f"rr_links: the positions are spherical ({how}): all relative screws are pure rotations "
+        f"about one point ({x:.6g}, {y:.6g}, {z:.6g}) ({size}); the RR link is not isolated: "
+        "every line through that point, fixed in the body, traces a circle whose axis through "
+        "the point completes a spherical RR (a two-parameter family, and no RR with skew axes "
+        "reaches the positions), so a generating RR cannot be recovered from three spherical "
+        "positions")
+
+
+def _factors(P0, P2, P3):
+    """The monic quadratic motion ``C(t) = t² + c₁ t + c₀`` through the normalised poses
+    (P0 at t = ∞) and its two factorisations ``(t − h₁)(t − h₂)``: ``(c1, c0, [(h1, h2)])``."""
+    a, b, cc = _study(P0, P2), _study(P0, P3), _study(P2, P3)
     # the conic  a x0 x2 + b x0 x3 + c x2 x3 = 0  with P0 at t = ∞ (see the module notes)
     c1 = -cc * P0 - b * P2 + a * P3
     c0 = a * P2
@@ -184,7 +361,6 @@ def rr_links(s12: Screw, s13: Screw, *, tol: float = 1e-9) -> list[RRLink]:
     up = roots[roots.imag > 0]
     up = up[np.argsort(up.real)]
     out = []
-    ts = _parameters(c1, c0, P2, P3)
     for z in up:
         m1, m0 = -2 * z.real, abs(z) ** 2
         r1 = c1 - m1 * one
@@ -195,30 +371,8 @@ def rr_links(s12: Screw, s13: Screw, *, tol: float = 1e-9) -> list[RRLink]:
             if abs(h[4]) > 1e-8 * max(1.0, np.abs(h).max()):
                 raise SynthesisError(f"rr_links: a factor is a screw, not a rotation "
                                      f"(dual scalar {h[4]:.1e})")
-        g, _ = _axis_of_factor(h1)
-        w, _ = _axis_of_factor(h2)
-        # back to the user's coordinates
-        g = Line(g.direction, g.point * L + c)
-        w = Line(w.direction, w.point * L + c)
-        g = g.canonical()
-        w = w.canonical(g)
-        fa, ma = [0.0], [0.0]
-        for t in ts:
-            F1 = Ti @ dq_to_matrix(np.r_[t, 0, 0, 0, 0, 0, 0, 0] - h1) @ Tn
-            F2 = Ti @ dq_to_matrix(np.r_[t, 0, 0, 0, 0, 0, 0, 0] - h2) @ Tn
-            fa.append(_angle_about(g, F1))
-            ma.append(_angle_about(w, F2))
-        foot_g, foot_w = common_normal(g, w)
-        link = RRLink(g, w, float(np.linalg.norm(foot_w - foot_g)),
-                      float(np.arccos(np.clip(g.direction @ w.direction, -1, 1))),
-                      np.array(fa), np.array(ma), 0.0)
-        link.residual = max(_pose_error(link.pose(fa[k], ma[k]), T, L)
-                            for k, T in enumerate([np.eye(4), T2, T3]))
-        if link.residual > tol * 1e3:
-            raise SynthesisError(f"rr_links: a solution misses the positions by "
-                                 f"{link.residual:.1e} (ill-conditioned positions)")
-        out.append(link)
-    return out
+        out.append((h1, h2))
+    return c1, c0, out
 
 
 def _parameters(c1, c0, P2, P3):
@@ -247,30 +401,40 @@ def _parameters(c1, c0, P2, P3):
 
 
 def _pose_error(A, B, length_scale=1.0):
-    """Largest of the rotation error (rad) and the translation error (length)."""
+    """Largest of the rotation error (rad) and the translation error divided by
+    ``length_scale`` (the task's reach: so the figure does not depend on the unit)."""
     # ‖R − I‖_F = 2√2 |sin(θ/2)|: accurate for small θ, which is what a residual measures
     E = np.linalg.norm(A[:3, :3].T @ B[:3, :3] - np.eye(3))
     rot = 2 * np.arcsin(min(1.0, E / (2 * np.sqrt(2))))
-    return float(max(rot, np.abs(A[:3, 3] - B[:3, 3]).max()))
+    return float(max(rot, np.abs(A[:3, 3] - B[:3, 3]).max() / length_scale))
 
 
 def rotation_axis_between(m3, q3, m4, q4):
     """The pure rotation carrying the line (direction m3, point q3) pointwise to (m4, q4).
 
-    Seed 001 (with DESIGN.md's correction): L ⊥ (M₄ − M₃), L ⊥ (Q₄ − Q₃); the
+    Seed 001 (its misprint (Q₁ − Q₃) read as (Q₄ − Q₃)): L ⊥ (M₄ − M₃), L ⊥ (Q₄ − Q₃); the
     angle from M₃ to M₄ about L, and the point from the plane rotation that
     takes Q₃ to Q₄.  Returns ``(Line, angle)``.
+
+    Parameters
+    ----------
+    m3, m4 : array_like, shape (3,)
+        Unit directions of the line in its two positions.
+    q3, q4 : array_like, shape (3,)
+        Corresponding points of the line (length unit of the task).
 
     Raises
     ------
     SynthesisError
-        When no pure rotation exists (the two differences are parallel or zero).
+        Bad input (naming the argument), or when no pure rotation exists (the two
+        differences are parallel or zero).
     """
-    m3, m4, q3, q4 = (np.asarray(v, float) for v in (m3, m4, q3, q4))
+    m3, m4 = unit(m3, "m3"), unit(m4, "m4")
+    q3, q4 = vec3(q3, "q3"), vec3(q4, "q4")
     dm, dq = m4 - m3, q4 - q3
     n = cross(dq, dm)
-    size = max(1.0, np.abs(q3).max(), np.abs(q4).max())
-    if np.linalg.norm(dm) < 1e-12 and np.linalg.norm(dq) < 1e-12 * size:
+    size = max(np.abs(q3).max(), np.abs(q4).max())      # the coordinates' size (round-off)
+    if np.linalg.norm(dm) < 1e-12 and np.linalg.norm(dq) <= 1e-12 * size:
         raise SynthesisError("axis 1: axis 3 does not move between the two positions (the "
                              "positions coincide)")
     if np.linalg.norm(n) <= 1e-10 * np.linalg.norm(dq) * np.linalg.norm(dm):

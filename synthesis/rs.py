@@ -29,6 +29,7 @@ from closure.frames import cross
 
 from .errors import SynthesisError
 from .screw import Line
+from .validate import integer, number, task_scale, transform, unit
 
 __all__ = ["rs_links", "RSLink"]
 
@@ -68,7 +69,8 @@ def _h(g, T):
     M = np.stack(rows, 1)
     with np.errstate(invalid="ignore"), warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        scale = np.maximum(1.0, np.nanmax(np.abs(Cs), axis=(1, 2)))
+        scale = np.nanmax(np.abs(Cs), axis=(1, 2))
+        scale = np.where(scale > 0, scale, 1.0)
         return np.linalg.det(np.nan_to_num(M, nan=0.0)) / scale ** 4 * \
             np.where(np.isnan(C).any(-1), np.nan, 1.0)
 
@@ -86,12 +88,45 @@ def rs_links(T, *, samples: int = 720, tol: float = 1e-9, circles=None) -> list[
     Returns the members of the one-parameter family met on the great circles of
     axis directions ``circles`` (pairs of orthonormal vectors; default the three
     coordinate planes and three diagonal planes), each reaching the positions to
-    ``tol`` (relative to the positions' size).
+    ``tol`` (relative to the task's reach, the size of its coordinates).
+
+    Parameters
+    ----------
+    T : array_like, shape (4, 4, 4)
+        Rigid transforms of positions 1–4; ``T[0]`` is the identity.
+    samples : int
+        Directions sampled per great circle (≥ 3).
+    tol : float
+        Largest circle residual accepted (relative), positive.
+    circles : sequence of pairs of orthonormal 3-vectors, optional
+
+    Raises
+    ------
+    SynthesisError
+        Bad input (naming the argument), or when no link is found.
     """
-    T = np.asarray(T, float)
-    if T.shape != (4, 4, 4):
-        raise SynthesisError(f"rs_links: expected four 4x4 positions, got shape {T.shape}")
-    size = max(1.0, np.abs(T[:, :3, 3]).max())
+    T = transform(T, "T", batch=True)
+    if T.shape[0] != 4:
+        raise SynthesisError(f"T: expected four 4x4 positions (4, 4, 4), got shape {T.shape}")
+    _, _, size = task_scale(T)
+    if np.abs(T[0, :3, :3] - np.eye(3)).max() > 1e-12 or \
+            np.abs(T[0, :3, 3]).max() > 1e-12 * size:
+        raise SynthesisError("T: expected T[0] to be the identity (position 1), got "
+                             f"{np.array2string(T[0], precision=3)}")
+    samples = integer(samples, "samples", low=3)
+    tol = number(tol, "tol", positive=True)
+    if circles is not None:
+        try:
+            circles = [(unit(a, f"circles[{i}][0]"), unit(b, f"circles[{i}][1]"))
+                       for i, (a, b) in enumerate(circles)]
+        except (TypeError, ValueError) as e:
+            if isinstance(e, SynthesisError):
+                raise
+            raise SynthesisError("circles: expected pairs of orthonormal 3-vectors") from None
+        for i, (a, b) in enumerate(circles):
+            if abs(a @ b) > 1e-6:
+                raise SynthesisError(f"circles[{i}]: the two vectors are not orthogonal "
+                                     f"(dot product {a @ b:.1e})")
     out = []
     for e1, e2 in (circles or _great_circles()):
         psi = np.linspace(0, np.pi, samples, endpoint=False)     # g and −g are the same axis
@@ -108,7 +143,7 @@ def rs_links(T, *, samples: int = 720, tol: float = 1e-9, circles=None) -> list[
                 continue
             link = _rs_from_direction(np.cos(p) * e1 + np.sin(p) * e2, T, size)
             if link is not None and link.residual <= tol and \
-                    not any(_same(link, o) for o in out):
+                    not any(_same(link, o, size) for o in out):
                 out.append(link)
     if not out:
         raise SynthesisError("rs_links: no RS link found on the sampled directions (positions "
@@ -116,9 +151,9 @@ def rs_links(T, *, samples: int = 720, tol: float = 1e-9, circles=None) -> list[
     return out
 
 
-def _same(a: RSLink, b: RSLink) -> bool:
+def _same(a: RSLink, b: RSLink, size: float) -> bool:
     return abs(abs(a.axis.direction @ b.axis.direction) - 1) < 1e-8 and \
-        np.linalg.norm(a.centre - b.centre) < 1e-7 * max(1.0, np.linalg.norm(a.centre))
+        np.linalg.norm(a.centre - b.centre) < 1e-7 * max(size, np.linalg.norm(a.centre))
 
 
 def _rs_from_direction(g, T, size):
@@ -146,7 +181,9 @@ def circle_axis(p1, p2, p3):
     from p1."""
     p1, p2, p3 = (np.asarray(p, float) for p in (p1, p2, p3))
     n = cross(p2 - p1, p3 - p1)
-    if np.linalg.norm(n) < 1e-12 * max(1.0, np.abs([p1, p2, p3]).max()) ** 2:
+    # collinear to round-off: relative to the triangle's size and the coordinates' size
+    size = max(np.abs(p2 - p1).max(), np.abs(p3 - p1).max(), np.abs(p3 - p2).max())
+    if np.linalg.norm(n) <= 1e-12 * size * max(size, np.abs([p1, p2, p3]).max()):
         raise SynthesisError("axis 1: the later positions of the sphere centre are collinear "
                              "or coincide; no circle through them")
     n /= np.linalg.norm(n)
@@ -162,8 +199,8 @@ def sphere_dyads(family, screws):
     """RRS (six positions) or PRS (five positions) dyads as rows for the variant table."""
     from .dyads import _row, verify_points
     n_pos = 6 if family == "RRS" else 5
-    T = [np.eye(4)] + [s.matrix() for s in screws]
-    size = max(1.0, max(np.abs(t[:3, 3]).max() for t in T))
+    from .dyads import _task
+    T, size = _task(screws)
     links = rs_links(np.array(T[:4]))
     rows, chains = [], []
     variant = 0

@@ -13,39 +13,38 @@ import numpy as np
 
 from closure.frames import cross, log_so3, rotation
 
-from .errors import SynthesisError
+from .validate import line as _line
+from .validate import number, screw as _screw, transform, unit, vec3
 
 __all__ = ["Screw", "Line", "relative_screw"]
 
 _AXIS_TOL = 1e-6
 
 
-def _unit(v, name, tol=_AXIS_TOL):
-    v = np.asarray(v, float)
-    if v.shape != (3,) or not np.all(np.isfinite(v)):
-        raise SynthesisError(f"{name}: expected a finite 3-vector, got {v!r}")
-    n = np.linalg.norm(v)
-    if n == 0:
-        raise SynthesisError(f"{name}: zero vector, expected a unit direction")
-    if abs(n - 1) > tol:
-        raise SynthesisError(f"{name}: length {n:.6g} is not 1 within {tol:g}; expected a unit "
-                             "direction (normalise it first)")
-    return v / n
-
-
 @dataclass(frozen=True)
 class Line:
-    """A line (joint axis): unit ``direction`` and a ``point`` on it (its canonical point)."""
+    """A line (joint axis): unit ``direction`` and a ``point`` on it (its canonical point).
+
+    Parameters
+    ----------
+    direction : array_like, shape (3,)
+        Unit direction (normalised if within 1e-6 of unit length).
+    point : array_like, shape (3,)
+        A point on the line (length unit of the task).
+
+    Raises
+    ------
+    SynthesisError
+        Naming ``direction`` or ``point``: wrong shape or type, NaN or inf, or a
+        direction that is not of unit length.
+    """
 
     direction: np.ndarray
     point: np.ndarray
 
     def __post_init__(self):
-        object.__setattr__(self, "direction", _unit(self.direction, "direction", 1e-6))
-        p = np.asarray(self.point, float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SynthesisError(f"point: expected a finite 3-vector, got {self.point!r}")
-        object.__setattr__(self, "point", p)
+        object.__setattr__(self, "direction", unit(self.direction, "direction", _AXIS_TOL))
+        object.__setattr__(self, "point", vec3(self.point, "point"))
 
     @classmethod
     def _exact(cls, direction, point) -> "Line":
@@ -56,13 +55,13 @@ class Line:
         return ln
 
     def transformed(self, T) -> "Line":
-        """The line moved by the 4x4 transform ``T`` (point moved, not re-canonicalised)."""
-        T = np.asarray(T, float)
+        """The line moved by the rigid 4x4 transform ``T`` (point moved, not re-canonicalised)."""
+        T = transform(T, "T")
         return Line._exact(T[:3, :3] @ self.direction, T[:3, :3] @ self.point + T[:3, 3])
 
     def foot_from(self, x) -> np.ndarray:
-        """The foot of the perpendicular from ``x`` to the line."""
-        x = np.asarray(x, float)
+        """The foot of the perpendicular from the point ``x`` ``(3,)`` to the line."""
+        x = vec3(x, "x")
         return self.point + ((x - self.point) @ self.direction) * self.direction
 
     def canonical(self, previous: "Line | None" = None) -> "Line":
@@ -71,10 +70,12 @@ class Line:
         perpendicular foot of previous's point when the lines are parallel)."""
         if previous is None:
             return Line._exact(self.direction, self.foot_from(np.zeros(3)))
+        _line(previous, "previous")
         return Line._exact(self.direction, common_normal(previous, self)[1])
 
     def distance_to(self, other: "Line") -> float:
         """Shortest distance between the two lines."""
+        _line(other, "other")
         a, b = common_normal(self, other)
         return float(np.linalg.norm(b - a))
 
@@ -100,10 +101,20 @@ class Screw:
 
     Parameters
     ----------
-    axis : (3,) unit direction (normalised if within 1e-6 of unit length)
-    point : (3,) a point on the axis
-    angle : float, rotation about the axis (rad)
-    slide : float, translation along the axis (length)
+    axis : array_like, shape (3,)
+        Unit direction (normalised if within 1e-6 of unit length).
+    point : array_like, shape (3,)
+        A point on the axis (length unit of the task).
+    angle : float
+        Rotation about the axis (rad).
+    slide : float
+        Translation along the axis (length unit of the task).
+
+    Raises
+    ------
+    SynthesisError
+        Naming the argument: wrong shape or type, NaN or inf, or an axis that is not
+        of unit length.
     """
 
     axis: np.ndarray
@@ -112,21 +123,15 @@ class Screw:
     slide: float
 
     def __post_init__(self):
-        object.__setattr__(self, "axis", _unit(self.axis, "axis"))
-        p = np.asarray(self.point, float)
-        if p.shape != (3,) or not np.all(np.isfinite(p)):
-            raise SynthesisError(f"point: expected a finite 3-vector, got {self.point!r}")
-        object.__setattr__(self, "point", p)
-        for name in ("angle", "slide"):
-            v = float(getattr(self, name))
-            if not np.isfinite(v):
-                raise SynthesisError(f"{name}: expected a finite number, got {v}")
-            object.__setattr__(self, name, v)
+        object.__setattr__(self, "axis", unit(self.axis, "axis", _AXIS_TOL))
+        object.__setattr__(self, "point", vec3(self.point, "point"))
+        object.__setattr__(self, "angle", number(self.angle, "angle", unit_="rad"))
+        object.__setattr__(self, "slide", number(self.slide, "slide"))
 
     @classmethod
     def from_degrees(cls, axis, point, angle_deg: float, slide: float) -> "Screw":
         """The screw with its rotation given in degrees (as seed 001's Table 1)."""
-        return cls(axis, point, np.radians(angle_deg), slide)
+        return cls(axis, point, np.radians(number(angle_deg, "angle_deg", unit_="degrees")), slide)
 
     def matrix(self) -> np.ndarray:
         """4x4 transform ``x ↦ R (x − c) + c + slide · axis``."""
@@ -143,18 +148,30 @@ class Screw:
         The identity gives angle 0, slide 0 and axis z through the origin; a pure
         translation gives angle 0 with the axis along the translation.  The axis
         point is the foot of the perpendicular from the origin; angle in [0, π].
+
+        Parameters
+        ----------
+        T : array_like, shape (4, 4)
+            A rigid transform: finite, last row ``(0, 0, 0, 1)`` and a proper rotation
+            block (to 1e-9).
+        tol : float
+            Rotation angle (rad) at or below which T counts as a pure translation
+            (the identity when it does not translate at all: a translation of any
+            length, however small, is kept, so the result does not depend on the unit).
+
+        Raises
+        ------
+        SynthesisError
+            Naming ``T`` (or ``tol``) and what was wrong.
         """
-        T = np.asarray(T, float)
-        if T.shape != (4, 4) or not np.all(np.isfinite(T)):
-            raise SynthesisError(f"T: expected a finite 4x4 transform, got shape {T.shape}")
+        T = transform(T, "T")
+        tol = number(tol, "tol", positive=True)
         R, p = T[:3, :3], T[:3, 3]
-        if np.abs(R @ R.T - np.eye(3)).max() > 1e-9 or np.linalg.det(R) < 0:
-            raise SynthesisError("T: rotation block is not a proper rotation")
         w = log_so3(R)
         th = float(np.linalg.norm(w))
         if th <= tol:
             n = float(np.linalg.norm(p))
-            if n <= tol * max(1.0, n):
+            if n == 0:
                 return cls(np.array([0, 0, 1.0]), np.zeros(3), 0.0, 0.0)
             return cls(p / n, np.zeros(3), 0.0, n)
         a = w / th
@@ -169,6 +186,7 @@ class Screw:
 
     def compose(self, other: "Screw") -> "Screw":
         """``self ∘ other``: first ``other``, then ``self``."""
+        _screw(other, "other")
         return Screw.from_matrix(self.matrix() @ other.matrix())
 
     def inverse(self) -> "Screw":
@@ -178,4 +196,6 @@ class Screw:
 def relative_screw(s1j: Screw, s1k: Screw) -> Screw:
     """The screw ``S_jk`` from position j to position k, both given from position 1:
     ``S_1k = S_jk ∘ S_1j``."""
+    _screw(s1j, "s1j")
+    _screw(s1k, "s1k")
     return Screw.from_matrix(s1k.matrix() @ np.linalg.inv(s1j.matrix()))

@@ -149,6 +149,112 @@ def test_hard_cases_accurate_or_clear():
                    for a, b in zip(rows_lines(r0), rows_lines(r1)))
 
 
+# ------------------------------------------------------------------ spherical positions
+# The property test's falsifying example: a generating RR whose axes meet (g through gp
+# passes through the origin, where the moving axis w does), so every position is a
+# rotation about one point.
+_G, _GP, _W = np.array([0.6, 0.8, 0.0]), np.array([0.75, 1.0, 0.0]), np.array([0.0, 0.0, 1.0])
+_N = np.cross(_G, _W) / np.linalg.norm(np.cross(_G, _W))
+
+
+def _spherical_task(centre, delta, R=np.eye(3)):
+    """The generator (fixed axis, moving axis) with the moving axis ``delta`` off the common
+    point (along the common normal), the whole moved so the point is at ``centre``, and its
+    positions 2, 3 as screws."""
+    gl = Line(R @ _G, R @ _GP + centre)
+    wl = Line(R @ _W, R @ (delta * _N) + centre)
+    T2, T3 = _rot(gl, 0.7) @ _rot(wl, -0.4), _rot(gl, -0.5) @ _rot(wl, 1.1)
+    return gl, wl, Screw.from_matrix(T2), Screw.from_matrix(T3)
+
+
+def _axis_error(ref: Line, got: Line, centre, size):
+    """Direction error (rad) and distance of ref's point nearest the task from got / size."""
+    p = ref.foot_from(centre)
+    return max(np.linalg.norm(np.cross(ref.direction, got.direction)),
+               np.linalg.norm(np.cross(got.direction, p - got.point)) / size)
+
+
+_ROT = exp_se3(np.array([0.3, -1.2, 2.0, 0, 0, 0]))[:3, :3]
+
+
+@pytest.mark.parametrize("centre, R", [((0.0, 0.0, 1.0), np.eye(3)),
+                                       ((3e3, -2e3, 1e3), _ROT), ((-0.4, 0.2, 0.7), _ROT)])
+def test_spherical_positions_raise_naming_the_point(centre, R):
+    """Concurrent screw axes without slides (a spherical RR generator): the RR link is not
+    isolated (a two-parameter family of spherical RRs), so rr_links says so and names the
+    common point; the RRR rows that use it carry that reason."""
+    centre = np.array(centre)
+    _, _, s12, s13 = _spherical_task(centre, 0.0, R)
+    with pytest.raises(SynthesisError, match=r"the positions are spherical \(to within "
+                                             r"round-off\): all relative screws are pure "
+                                             r"rotations about one point") as info:
+        rr_links(s12, s13)
+    msg = str(info.value)
+    assert "not isolated" in msg
+    point = np.array([float(v) for v in msg.split("one point (")[1].split(")")[0].split(",")])
+    assert np.allclose(point, centre, rtol=0, atol=1e-9 * max(1.0, np.abs(centre).max()))
+    s14 = Screw.from_matrix(_rot(Line(R @ _G, R @ _GP + centre), 1.3)
+                            @ _rot(Line(R @ _W, centre), 0.6))
+    df = enumerate_dyads("RRR", [s12, s13, s14])
+    assert len(df) == 36 and df.reason.str.contains("positions are spherical").all()
+
+
+def test_exactly_spherical_screws_raise():
+    """Scale-free screws (pure rotations about axes through the origin, no length at all)."""
+    s12 = Screw([0, 0, 1], [0, 0, 0], 0.7, 0.0)
+    s13 = Screw(np.array([1.0, 1.0, 1.0]) / np.sqrt(3), [0, 0, 0], 0.5, 0.0)
+    with pytest.raises(SynthesisError, match=r"spherical \(exactly\).*one point \(0, 0, 0\)"):
+        rr_links(s12, s13)
+
+
+def test_spherical_at_the_origin_is_a_tiny_task():
+    """The same generator about the origin, from points of size 1: the screws keep only a
+    round-off remainder of translation (~1e-17), which as data is a generic task of that size
+    (unit invariance forbids an absolute floor). Its own two links are returned and reach
+    the given positions; they are not the generator, which these data do not determine."""
+    from synthesis.validate import task_scale
+    _, _, s12, s13 = _spherical_task(np.zeros(3), 0.0)
+    _, L, _ = task_scale([s12.matrix(), s13.matrix()], [s12.axis, s13.axis],
+                         [s12.point, s13.point])
+    assert L < 1e-15
+    links = rr_links(s12, s13)
+    assert len(links) == 2 and max(l.residual for l in links) < 1e-12
+
+
+@pytest.mark.parametrize("centre, R", [((0.0, 0.0, 1.0), np.eye(3)),
+                                       ((3e3, -2e3, 1e3), _ROT)])
+def test_nearly_spherical_positions_are_accurate_or_raise(centre, R):
+    """As the generator's axes approach each other (distance δ → 0) the task shrinks to its
+    centre while its coordinates keep their round-off: the links are known to ~ε·reach/L.
+    rr_links either returns the generator to within its stated accuracy (≤ 1e-6), or raises
+    naming the positions spherical; never a silently wrong link."""
+    from synthesis.validate import task_scale
+    centre = np.array(centre)
+    returned, raised = [], []
+    for k in range(0, 17):
+        delta = 10.0 ** -k
+        gl, wl, s12, s13 = _spherical_task(centre, delta, R)
+        c, L, reach = task_scale([s12.matrix(), s13.matrix()], [s12.axis, s13.axis],
+                                 [s12.point, s13.point])
+        try:
+            links = rr_links(s12, s13)
+        except SynthesisError as e:
+            assert "positions are spherical" in str(e), str(e)
+            raised.append(delta)
+            continue
+        returned.append(delta)
+        acc = max(l.info["accuracy"] for l in links)
+        assert acc <= 1e-6
+        err = min(max(_axis_error(gl, l.fixed_axis, c, L), _axis_error(wl, l.moving_axis, c, L))
+                  for l in links)
+        assert err <= 10 * acc, (delta, err, acc)
+    # one switch, where the estimate (≳ ε·reach/L, L ≈ 0.42 δ, reach ≈ 1 or 3e3) passes 1e-6:
+    # measured, δ = 1e-7 (err 9e-9) still returns about (0, 0, 1), δ = 1e-3 (err 3e-9) far away
+    assert returned and raised and min(returned) > max(raised)
+    assert min(returned) <= (1e-6 if centre[2] == 1.0 else 1e-2)
+    assert max(raised) >= (1e-10 if centre[2] == 1.0 else 1e-6)
+
+
 def test_kinematic_inversion_reaches_the_inverse_positions():
     df = enumerate_dyads("RRR", SEED)
     inv = invert_chain(df.iloc[5])

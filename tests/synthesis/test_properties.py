@@ -1,0 +1,377 @@
+"""Property-based tests of the synthesis package's public API (hypothesis).
+
+Bad inputs raise SynthesisError naming the argument; screws, RR links and the RRR
+variant table move with a rigid motion of the whole task (also 1e3–1e6 away from
+the origin) and scale with its length unit (1e-13 … 1e8), with the same variant
+count and regular flags; a batch verification equals the chains one by one.
+"""
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, assume, example, given, settings
+from hypothesis import strategies as st
+
+from closure import exp_so3
+from synthesis import (Line, Screw, SynthesisError, chain_mechanism, enumerate_dyads, families,
+                       inverse_screws, invert_chain, relative_screw, rotation_axis_between,
+                       rr_links, rrr_dyads, rs_links, verify_chain)
+from synthesis.dyads import verify_chains
+from synthesis.rr import _rot
+
+FAST = settings(max_examples=25, deadline=None, database=None, derandomize=True,
+                suppress_health_check=[HealthCheck.too_slow])
+
+SEED = [Screw.from_degrees([0, 0, 1], [0, 0, 0], 30, 0.7),
+        Screw.from_degrees([0.34202, 0, 0.939693], [0, 1.1, 0], 65, 0.5),
+        Screw.from_degrees([0.66, 0.043589, 0.75], [0.25, 1.2, -0.289742], 75, 0.3)]
+D0 = enumerate_dyads("RRR", SEED)
+L0 = Line(np.array([0, 0, 1.0]), np.array([1.0, 0, 0]))
+L1 = Line(np.array([1.0, 0, 0]), np.array([0.1, -0.2, 0.3]))
+P0 = np.array([0.1, -0.2, 0.3])
+LINK = rr_links(SEED[0], SEED[1])[0]
+T4 = np.array([np.eye(4)] + [s.matrix() for s in SEED])
+
+
+def row_lines(row):
+    return [Line(np.array([row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"]]),
+                 np.array([row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"]])) for k in (1, 2, 3)]
+
+
+def same_line(a: Line, b: Line, tol: float, size: float = 1.0) -> bool:
+    """The reference line ``a`` and the computed ``b`` coincide: parallel directions (either
+    sense), and a's point (near the task) on b, to ``tol`` (lengths relative to ``size``).
+    b's canonical point may lie far along the line (the foot from the origin), where
+    any direction error is multiplied by that distance, so b is measured at a's point."""
+    return abs(abs(a.direction @ b.direction) - 1) < tol and \
+        np.linalg.norm(np.cross(b.direction, a.point - b.point)) < tol * size
+
+
+def moved(G, line: Line) -> Line:
+    return Line(G[:3, :3] @ line.direction, G[:3, :3] @ line.point + G[:3, 3])
+
+
+# ------------------------------------------------------------------ bad inputs
+CASES = {
+    "Screw": (Screw, dict(axis=np.array([0, 0, 1.0]), point=P0, angle=0.5, slide=0.1)),
+    "Screw.from_degrees": (Screw.from_degrees, dict(axis=np.array([0, 0, 1.0]), point=P0,
+                                                    angle_deg=30.0, slide=0.1)),
+    "Screw.from_matrix": (Screw.from_matrix, dict(T=SEED[1].matrix())),
+    "Screw.compose": (SEED[0].compose, dict(other=SEED[1])),
+    "Line": (Line, dict(direction=np.array([0, 0, 1.0]), point=P0)),
+    "Line.transformed": (L0.transformed, dict(T=SEED[1].matrix())),
+    "Line.foot_from": (L0.foot_from, dict(x=P0)),
+    "Line.canonical": (L0.canonical, dict(previous=L1)),
+    "Line.distance_to": (L0.distance_to, dict(other=L1)),
+    "relative_screw": (relative_screw, dict(s1j=SEED[0], s1k=SEED[1])),
+    "rr_links": (rr_links, dict(s12=SEED[0], s13=SEED[1], tol=1e-9)),
+    "RRLink.pose": (LINK.pose, dict(fixed_angle=0.3, moving_angle=-0.2)),
+    "rotation_axis_between": (rotation_axis_between, dict(
+        m3=np.array([0, 0, 1.0]), q3=np.array([1.0, 0, 0]), m4=np.array([0, 1.0, 0]),
+        q4=np.array([0, 1.0, 0.5]))),
+    "enumerate_dyads": (enumerate_dyads, dict(family="RRR", screws=SEED)),
+    "rrr_dyads": (rrr_dyads, dict(screws=SEED)),
+    "rs_links": (rs_links, dict(T=T4, samples=60, tol=1e-9)),
+    "inverse_screws": (inverse_screws, dict(screws=SEED)),
+    "verify_chain": (verify_chain, dict(types="RRR", lines=[L0, L1, L0],
+                                        joint_values=np.zeros((2, 3)),
+                                        targets=np.array([np.eye(4), np.eye(4)]), length=1.0)),
+    "chain_mechanism": (chain_mechanism, dict(types="RRR", lines=[L0, L1, L0])),
+    "invert_chain": (invert_chain, dict(row=D0.iloc[3])),
+}
+SCREWS, LINES = {"other", "s1j", "s1k", "s12", "s13"}, {"previous", "other_line"}
+POSITIVE = {"tol", "length"}
+
+
+def corruptions(fname, name, value):
+    """(kind, bad value) pairs for one argument; every one is invalid for it."""
+    common = [("str", "abc"), ("None", None), ("dict", {"a": 1}), ("object", object())]
+    if name == "previous" or (name == "other" and fname.startswith("Line")):
+        return [k for k in common if k[0] != "None"] + [("screw", SEED[0]), ("array", P0)]
+    if name in SCREWS:
+        return common + [("line", L0), ("matrix", SEED[0].matrix())]
+    if name == "screws":
+        return [("str", "abc"), ("None", None), ("one screw", SEED[0]), ("int", 3),
+                ("with a matrix", [SEED[0], SEED[1].matrix(), SEED[2]]),
+                ("with None", [SEED[0], None, SEED[2]])] + \
+            ([("too few", SEED[:2]), ("too many", SEED + SEED[:1])] if fname != "inverse_screws"
+             else [])
+    if name == "family":
+        return [("None", None), ("int", 3), ("unknown", "XYZ"), ("unimplemented", "RPR")]
+    if name == "types":
+        return [("None", None), ("list", ["R", "R", "R"]), ("short", "RR"), ("unknown", "RXR"),
+                ("sphere", "RRS")] if fname == "verify_chain" else \
+            [("None", None), ("short", "RR"), ("unknown", "RXR"), ("sphere", "RRS")]
+    if name == "lines":
+        return [("None", None), ("str", "abc"), ("short", [L0, L1]), ("with a screw", [L0, SEED[0], L1])]
+    if name == "row":
+        r, f = value.copy(), value.copy()
+        r["j2_ux"] = np.nan
+        f["reason"] = "degenerate positions"
+        return [("None", None), ("int", 3), ("missing column", value.drop("j2_uy")),
+                ("NaN axis", r), ("failed variant", f), ("dict missing", {"j1_type": "R"})]
+    if name in ("samples",):
+        return [("float", 60.5), ("str", "60"), ("None", None), ("too few", 1), ("bool", True)]
+    if isinstance(value, float):
+        out = common + [("nan", np.nan), ("inf", np.inf), ("-inf", -np.inf), ("list", [1.0, 2.0]),
+                        ("complex", 1 + 2j), ("array", np.ones(3))]
+        if name in POSITIVE:
+            out += [("zero", 0.0), ("negative", -1.0)]
+        return out
+    v = np.asarray(value, float)
+    out = common + [("complex", v.astype(complex) + 1j), ("ragged", [[1.0, 2.0], [3.0]]),
+                    ("scalar", 1.0), ("short", v[..., :-1]), ("long", np.concatenate([v, v[..., :1]], -1)),
+                    ("batched", v[None])]
+    for bad in (np.nan, np.inf, -np.inf):
+        w = v.copy()
+        w.flat[w.size // 2] = bad
+        out.append((f"{bad}", w))
+    if name in ("axis", "direction", "m3", "m4"):
+        out += [("zero", np.zeros(3)), ("not unit", 2 * v)]
+    if v.shape[-2:] == (4, 4):
+        w = v.copy()
+        w[..., 3, 1] = 0.25
+        out.append(("last row", w))
+        w = v.copy()
+        w[..., :3, :3] *= 1.01
+        out.append(("not orthonormal", w))
+        w = v.copy()
+        w[..., :3, 0] *= -1
+        out.append(("reflection", w))
+    if fname == "rs_links" and name == "T":
+        w = v.copy()
+        w[0] = w[1]
+        out.append(("first not identity", w))
+        out.append(("three positions", v[:3]))
+    if fname == "verify_chain" and name == "joint_values":
+        out.append(("rows ≠ targets", np.zeros((3, 3))))
+    return out
+
+
+BAD = [(f, arg, kind) for f, (_, kw) in CASES.items() for arg in kw
+       for kind, _ in corruptions(f, arg, kw[arg])]
+
+
+@settings(FAST, max_examples=150)
+@given(st.sampled_from(BAD))
+def test_bad_input_raises_synthesis_error_naming_the_argument(case):
+    fname, arg, kind = case
+    f, kw = CASES[fname]
+    bad = dict(corruptions(fname, arg, kw[arg]))[kind]
+    with pytest.raises(SynthesisError) as info:
+        f(**{**kw, arg: bad})
+    assert isinstance(info.value, ValueError)
+    assert arg in str(info.value), (fname, arg, kind, str(info.value))
+
+
+@pytest.mark.parametrize("fname", sorted(CASES))
+def test_the_tables_valid_arguments_work(fname):
+    """The reference calls of the bad-input table are valid (so each corruption is the
+    only thing wrong in its call)."""
+    f, kw = CASES[fname]
+    f(**kw)
+
+
+def test_every_public_function_is_covered_by_the_bad_input_table():
+    import synthesis
+    covered = {name.split(".")[0] for name in CASES} | {
+        "RRLink", "RSLink", "SynthesisError", "DYAD_COLUMNS", "JOINT_LETTERS", "families"}
+    assert set(synthesis.__all__) <= covered
+    assert families().shape[0] > 0
+
+
+def test_known_cases():
+    """The issue's cases: NaN and wrong shapes into Screw, Line and Screw.from_matrix."""
+    with pytest.raises(SynthesisError, match="angle: expected a finite number"):
+        Screw([0, 0, 1], P0, np.nan, 0.0)
+    with pytest.raises(SynthesisError, match="angle: expected a number"):
+        Screw([0, 0, 1], P0, "0.5", 0.0)
+    with pytest.raises(SynthesisError, match=r"point: expected finite values, got nan"):
+        Line([0, 0, 1], [0, np.nan, 0])
+    with pytest.raises(SynthesisError, match=r"T: expected a finite 4x4 rigid transform \(4, 4\), "
+                                             r"got shape \(1, 4, 4\)"):
+        Screw.from_matrix(np.eye(4)[None])
+    bad_row = np.eye(4)
+    bad_row[3] = [1, 0, 0, 1]
+    with pytest.raises(SynthesisError, match=r"T: last row must be \(0, 0, 0, 1\)"):
+        Screw.from_matrix(bad_row)
+    with pytest.raises(SynthesisError, match="T: rotation block is not a proper rotation"):
+        Screw.from_matrix(np.diag([1, 1, 1.1, 1]))
+    with pytest.raises(SynthesisError, match="s12: expected a Screw"):
+        rr_links(SEED[0].matrix(), SEED[1])
+
+
+# ------------------------------------------------------------------ tolerances and scale
+def test_rr_and_rrr_residual_checks_are_relative_to_the_task():
+    """At 1e8 m a 2e-14 relative error was called ill-conditioned (absolute 1e-6 check),
+    and at 1e-13 m the Study products fell under an absolute 1e-14: both now regular."""
+    for lam in (1e8, 1e-13):
+        scaled = [Screw(s.axis, lam * s.point, s.angle, lam * s.slide) for s in SEED]
+        links = rr_links(scaled[0], scaled[1])
+        ref = rr_links(SEED[0], SEED[1])
+        assert len(links) == 2 and max(l.residual for l in links) < 1e-12
+        for a, b in zip(ref, links):
+            assert same_line(Line(a.fixed_axis.direction, lam * a.fixed_axis.point),
+                             b.fixed_axis, 1e-9, lam)
+            assert np.isclose(b.length, lam * a.length, rtol=1e-9)
+        df = enumerate_dyads("RRR", scaled)
+        assert len(df) == 36 and (df.reason == "").all() and df.residual.max() < 1e-12
+
+
+@st.composite
+def rigid_motions(draw, far=(3.0, 6.0)):
+    rv = np.array(draw(st.lists(st.floats(-3, 3), min_size=3, max_size=3)))
+    d = np.array(draw(st.lists(st.floats(-1, 1), min_size=3, max_size=3)))
+    assume(np.linalg.norm(d) > 0.1)
+    G = np.eye(4)
+    G[:3, :3] = exp_so3(rv)
+    G[:3, 3] = 10 ** draw(st.floats(*far)) * d / np.linalg.norm(d)
+    return G
+
+
+def conjugate(G, screws):
+    """The task moved by G: S ↦ G S G⁻¹."""
+    Gi = np.linalg.inv(G)
+    return [Screw.from_matrix(G @ s.matrix() @ Gi) for s in screws]
+
+
+@settings(FAST, max_examples=12)
+@given(rigid_motions())
+@example(np.array([[1.0, 0, 0, 1e6], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]))
+def test_rrr_table_moves_with_the_task_far_from_the_origin(G):
+    """Conjugating every screw by a rigid motion 1e3–1e6 m away keeps the 36 variants and
+    their regular flags, and every axis is the moved one (to round-off of the offset)."""
+    d1 = enumerate_dyads("RRR", conjugate(G, SEED))
+    assert len(d1) == 36
+    assert (d1.reason == "").tolist() == (D0.reason == "").tolist()
+    assert d1.residual.max() < 1e-12
+    off = np.abs(G[:3, 3]).max()
+    for (_, r0), (_, r1) in zip(D0.iterrows(), d1.iterrows()):
+        assert all(same_line(moved(G, a), b, 1e-13 * off + 1e-9)
+                   for a, b in zip(row_lines(r0), row_lines(r1)))
+
+
+@settings(FAST, max_examples=10)
+@given(st.floats(-13, 8))
+@example(-13.0)
+@example(8.0)
+def test_rrr_table_scales_with_the_length_unit(log_lam):
+    lam = 10.0 ** log_lam
+    d1 = enumerate_dyads("RRR", [Screw(s.axis, lam * s.point, s.angle, lam * s.slide)
+                                 for s in SEED])
+    assert len(d1) == 36 and (d1.reason == "").all() and d1.residual.max() < 1e-12
+    for (_, r0), (_, r1) in zip(D0.iterrows(), d1.iterrows()):
+        assert all(same_line(Line(a.direction, lam * a.point), b, 1e-9, lam)
+                   for a, b in zip(row_lines(r0), row_lines(r1)))
+        assert np.allclose([r1[f"q{k}_pos{p}"] for k in (1, 2, 3) for p in (1, 2, 3, 4)],
+                           [r0[f"q{k}_pos{p}"] for k in (1, 2, 3) for p in (1, 2, 3, 4)],
+                           atol=1e-9)
+
+
+unit_vectors = st.lists(st.floats(-1, 1), min_size=3, max_size=3).map(np.array).filter(
+    lambda v: np.linalg.norm(v) > 0.2).map(lambda v: v / np.linalg.norm(v))
+points = st.lists(st.floats(-1, 1), min_size=3, max_size=3).map(np.array)
+
+
+@settings(FAST, max_examples=30)
+@given(unit_vectors, points, st.floats(0.05, 3.0), st.floats(-2, 2), rigid_motions(),
+       st.floats(-13, 8))
+def test_screw_from_matrix_moves_and_scales(axis, point, angle, slide, G, log_lam):
+    """from_matrix(G S G⁻¹) is S's axis moved by G with the same angle and slide; lengths
+    × λ scale the point and the slide only."""
+    s = Screw(axis, point, angle, slide)
+    m = Screw.from_matrix(G @ s.matrix() @ np.linalg.inv(G))
+    off = np.abs(G[:3, 3]).max()
+    assert abs(m.angle - angle) < 1e-9
+    sign = np.sign(m.axis @ (G[:3, :3] @ axis))
+    assert abs(m.slide - sign * slide) < 1e-15 * off + 1e-9
+    assert same_line(moved(G, s.line()), m.line(), 1e-13 * off + 1e-9)
+    lam = 10.0 ** log_lam
+    sc = Screw.from_matrix(Screw(axis, lam * point, angle, lam * slide).matrix())
+    ref = Screw.from_matrix(s.matrix())
+    assert abs(sc.slide - lam * ref.slide) <= 1e-12 * lam and np.allclose(sc.axis, ref.axis)
+    assert np.allclose(sc.point, lam * ref.point, rtol=0, atol=1e-12 * lam)
+
+
+_G6 = np.eye(4)
+_G6[:3, :3], _G6[:3, 3] = exp_so3(np.array([0.3, -1.2, 2.0])), [4e5, -7e5, 5e5]
+
+
+@settings(FAST, max_examples=20)
+@given(unit_vectors, points, unit_vectors, points, rigid_motions(far=(-1.0, 6.0)),
+       st.floats(-12, 8))
+@example(np.array([0.6, 0.0, 0.8]), np.array([0.2, -0.5, 0.1]), np.array([0.0, 0.6, -0.8]),
+         np.array([-0.4, 0.3, 0.9]), _G6, 8.0)
+@example(np.array([0.6, 0.0, 0.8]), np.array([0.2, -0.5, 0.1]), np.array([0.0, 0.6, -0.8]),
+         np.array([-0.4, 0.3, 0.9]), _G6, -12.0)
+def test_rr_links_move_and_scale_with_the_task(g, gp, w, wp, G, log_lam):
+    """A generating RR link is among the two solutions; moving the task by G (up to 1e6 m)
+    moves both solutions, scaling it by λ scales them.
+
+    Generic tasks only: a generator whose axes (nearly) intersect gives spherical positions,
+    where the RR link is not isolated (tests/synthesis/test_synthesis.py, the spherical
+    cases); built from points of size ~1 its task is only as accurate as ε / (axis distance)."""
+    assume(abs(g @ w) < 0.95)
+    gl, wl = Line(g, gp), Line(w, wp)
+    assume(gl.distance_to(wl) > 1e-3 * max(1.0, np.abs(gp).max(), np.abs(wp).max()))
+    T2, T3 = _rot(gl, 0.7) @ _rot(wl, -0.4), _rot(gl, -0.5) @ _rot(wl, 1.1)
+    try:
+        ref = rr_links(Screw.from_matrix(T2), Screw.from_matrix(T3))
+    except SynthesisError:
+        assume(False)
+    assert any(same_line(l.fixed_axis, gl, 1e-7) and same_line(l.moving_axis, wl, 1e-7)
+               for l in ref)
+    assert all(l.info["accuracy"] < 1e-6 for l in ref)
+    Gi = np.linalg.inv(G)
+    off = np.abs(G[:3, 3]).max()
+    try:
+        got = rr_links(Screw.from_matrix(G @ T2 @ Gi), Screw.from_matrix(G @ T3 @ Gi))
+    except SynthesisError as e:
+        # moved far away, a task that is small against its distance from the origin is
+        # spherical to the round-off of its coordinates: only then may it refuse
+        assert "spherical" in str(e) and off > 1e6 * gl.distance_to(wl), str(e)
+        got = []
+    for a, b in zip(ref, got):
+        assert same_line(moved(G, a.fixed_axis), b.fixed_axis, 1e-12 * off + 1e-8)
+        assert same_line(moved(G, a.moving_axis), b.moving_axis, 1e-12 * off + 1e-8)
+        assert b.residual < 1e-10
+    lam = 10.0 ** log_lam
+    S = np.diag([lam, lam, lam, 1.0])
+    Si = np.diag([1 / lam, 1 / lam, 1 / lam, 1.0])
+    got = rr_links(Screw.from_matrix(S @ T2 @ Si), Screw.from_matrix(S @ T3 @ Si))
+    for a, b in zip(ref, got):
+        assert same_line(Line(a.fixed_axis.direction, lam * a.fixed_axis.point), b.fixed_axis,
+                         1e-8, lam)
+        assert np.isclose(b.length, lam * a.length, rtol=1e-7, atol=1e-9 * lam)
+        assert np.allclose(b.fixed_angles, a.fixed_angles, atol=1e-8)
+
+
+def test_batch_verification_equals_one_by_one():
+    """verify_chains (all variants hung from one mechanism, one batched solve) gives each
+    row's residual; verify_chain on that row alone gives the same figure, and so does the
+    table (whose residual is relative to the task's reach)."""
+    from synthesis.validate import task_scale
+    ok = D0[D0.reason == ""].iloc[::5]
+    _, _, reach = task_scale(T4, [s.axis for s in SEED], [s.point for s in SEED])
+    chains, one = [], []
+    for _, r in ok.iterrows():
+        jv = np.array([[r[f"q{k}_pos{p}"] for k in (1, 2, 3)] for p in (1, 2, 3, 4)])
+        chains.append(("RRR", row_lines(r), jv))
+        one.append(verify_chain("RRR", row_lines(r), jv, T4, reach))
+    batch = verify_chains(chains, T4, reach)
+    assert np.allclose(batch, one, rtol=0, atol=1e-15) and max(one) < 1e-12
+    assert np.allclose(ok.residual.to_numpy(), one, rtol=0, atol=1e-14)
+
+
+def test_scaled_sphere_dyads_keep_their_members():
+    """PRS through five positions at a 1e-6 m and a 1e5 m scale: same members, regular."""
+    from tests.synthesis.test_synthesis import _sphere_positions
+    screws, _, _ = _sphere_positions(11, 5, prismatic=True)
+    d0 = enumerate_dyads("PRS", screws)
+    for lam in (1e-6, 1e5):
+        d1 = enumerate_dyads("PRS", [Screw(s.axis, lam * s.point, s.angle, lam * s.slide)
+                                     for s in screws])
+        assert len(d1) == len(d0) and (d1.reason == "").tolist() == (d0.reason == "").tolist()
+        ok = d1.reason == ""
+        assert d1[ok].residual.max() < 1e-9
+        assert np.allclose(d1[ok][["j3_x", "j3_y", "j3_z"]].to_numpy(),
+                           lam * d0[ok][["j3_x", "j3_y", "j3_z"]].to_numpy(), rtol=1e-6,
+                           atol=1e-9 * lam)

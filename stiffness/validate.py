@@ -7,9 +7,10 @@ was expected and what was given, never a numpy traceback.
 """
 from __future__ import annotations
 
-from numbers import Real
 
 import numpy as np
+
+from closure.checks import real_number
 
 from .errors import StiffnessError
 
@@ -140,19 +141,8 @@ def matrix6(K, name: str = "K", *, single: bool = False) -> np.ndarray:
 def number(x, name: str, *, positive: bool = False, nonnegative: bool = False,
            unit: str = "") -> float:
     """A finite real scalar (optionally > 0 or ≥ 0)."""
-    u = f" ({unit})" if unit else ""
-    scalar = isinstance(x, (Real, np.integer, np.floating)) or \
-        (isinstance(x, np.ndarray) and x.shape == () and x.dtype.kind in "iuf")
-    if not scalar or isinstance(x, (bool, np.bool_)):
-        raise StiffnessError(f"{name}: expected a number{u}, got {type(x).__name__} {x!r}")
-    v = float(x)
-    if not np.isfinite(v):
-        raise StiffnessError(f"{name}: expected a finite number{u}, got {v}")
-    if positive and v <= 0:
-        raise StiffnessError(f"{name}: expected a positive number{u}, got {v}")
-    if nonnegative and v < 0:
-        raise StiffnessError(f"{name}: expected a non-negative number{u}, got {v}")
-    return v
+    return real_number(x, name, StiffnessError, positive=positive, nonnegative=nonnegative,
+                       unit=unit)
 
 
 def broadcast(**shapes) -> tuple:

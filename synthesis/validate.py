@@ -9,9 +9,10 @@ and change of length unit).
 """
 from __future__ import annotations
 
-from numbers import Real
 
 import numpy as np
+
+from closure.checks import real_number
 
 from .errors import SynthesisError
 
@@ -77,17 +78,7 @@ def unit(x, name: str, tol: float = 1e-6) -> np.ndarray:
 
 def number(x, name: str, *, positive: bool = False, unit_: str = "") -> float:
     """A finite real scalar (optionally > 0)."""
-    u = f" ({unit_})" if unit_ else ""
-    scalar = isinstance(x, (Real, np.integer, np.floating)) or \
-        (isinstance(x, np.ndarray) and x.shape == () and x.dtype.kind in "iuf")
-    if not scalar or isinstance(x, (bool, np.bool_)):
-        raise SynthesisError(f"{name}: expected a number{u}, got {type(x).__name__} {x!r}")
-    v = float(x)
-    if not np.isfinite(v):
-        raise SynthesisError(f"{name}: expected a finite number{u}, got {v}")
-    if positive and v <= 0:
-        raise SynthesisError(f"{name}: expected a positive number{u}, got {v}")
-    return v
+    return real_number(x, name, SynthesisError, positive=positive, unit=unit_)
 
 
 def integer(x, name: str, *, low: int = 0) -> int:

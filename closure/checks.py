@@ -1,0 +1,29 @@
+"""Input checks shared by every linkwright package: each names the argument it rejects and
+raises the calling package's own error class (a ValueError subclass)."""
+from __future__ import annotations
+
+from numbers import Real
+
+import numpy as np
+
+__all__ = ["real_number"]
+
+
+def real_number(x, name: str, error: type[ValueError], *, positive: bool = False,
+                nonnegative: bool = False, unit: str = "") -> float:
+    """``x`` as a float after checking it is one finite real number (optionally > 0 or ≥ 0).
+
+    Raises ``error`` with a message that starts with ``name`` and gives the ``unit``."""
+    u = f" ({unit})" if unit else ""
+    scalar = isinstance(x, (Real, np.integer, np.floating)) or \
+        (isinstance(x, np.ndarray) and x.shape == () and x.dtype.kind in "iuf")
+    if not scalar or isinstance(x, (bool, np.bool_)):
+        raise error(f"{name}: expected a number{u}, got {type(x).__name__} {x!r}")
+    v = float(x)
+    if not np.isfinite(v):
+        raise error(f"{name}: expected a finite number{u}, got {v}")
+    if positive and v <= 0:
+        raise error(f"{name}: expected a positive number{u}, got {v}")
+    if nonnegative and v < 0:
+        raise error(f"{name}: expected a non-negative number{u}, got {v}")
+    return v

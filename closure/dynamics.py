@@ -50,6 +50,9 @@ def pseudo_inertia(mass: float, com, inertia) -> np.ndarray:
     mass = as_number(mass, "pseudo_inertia: mass")
     c = as_array(com, "pseudo_inertia: com", (3,))
     I = as_array(inertia, "pseudo_inertia: inertia", (3, 3))
+    if c.shape != (3,) or I.shape != (3, 3):
+        raise MechanismError(f"pseudo_inertia: expected com (3,) and inertia (3, 3), got "
+                             f"{c.shape} and {I.shape}")
     S = 0.5 * np.trace(I) * np.eye(3) - I + mass * np.outer(c, c)
     J = np.zeros((4, 4))
     J[:3, :3] = S

@@ -1,12 +1,14 @@
 """Rigid-body frames: rotations, 4x4 homogeneous transforms, twists and SE(3) exp/log.
 
-Conventions (shared/DESIGN.md §2): a transform is ``[[R, p], [0, 1]]`` acting on
+Conventions: a transform is ``[[R, p], [0, 1]]`` acting on
 column vectors ``(x, y, z, 1)``; every function broadcasts over leading axes, so
 one pose is ``(4, 4)`` and a batch is ``(..., 4, 4)``.  A twist is the 6-vector
 ``(v, ω)``: linear part first, as in seed 003's six-vectors, where ``v`` is the
 velocity of the body point at the origin of the frame the twist is written in.
 """
 from __future__ import annotations
+
+import numbers
 
 import numpy as np
 
@@ -16,14 +18,85 @@ __all__ = [
     "skew", "cross", "unskew", "hat", "vee", "rotation", "rot_x", "rot_y", "rot_z",
     "transform", "translation", "inverse", "adjoint", "ad", "exp_so3", "log_so3",
     "exp_se3", "log_se3", "frame_from_points", "euler_zxz", "check_transform",
+    "as_array", "as_number", "as_index",
 ]
 
 _EYE3 = np.eye(3)
 
 
+# ------------------------------------------------------------ input validation helpers
+def as_array(x, name: str, tail: tuple = (), finite: bool = True) -> np.ndarray:
+    """``x`` as a float array, checked; every public function validates through this.
+
+    Parameters
+    ----------
+    name : str
+        The argument's name, used in the message.
+    tail : tuple of int
+        Required trailing shape (e.g. ``(3,)`` for points, ``(4, 4)`` for transforms);
+        leading batch axes are free.
+    finite : bool
+        Reject NaN and infinite entries.
+
+    Raises
+    ------
+    MechanismError
+        Naming ``name``: not numbers (strings, ragged nesting, objects), a wrong
+        trailing shape, or non-finite entries.
+    """
+    if isinstance(x, (str, bytes)):
+        raise MechanismError(f"{name}: expected numbers, got the string {x!r}")
+    if x is None:
+        raise MechanismError(f"{name}: expected numbers, got None")
+    try:
+        a = np.asarray(x, dtype=float)
+    except (TypeError, ValueError, OverflowError):
+        raise MechanismError(f"{name}: expected numbers, got {type(x).__name__} "
+                             f"{str(x)[:60]}") from None
+    tail = tuple(tail)
+    if tail and (a.ndim < len(tail) or a.shape[a.ndim - len(tail):] != tail):
+        want = "x".join(map(str, tail))
+        raise MechanismError(f"{name}: expected shape (..., {', '.join(map(str, tail))}) "
+                             f"({want} {'vector' if len(tail) == 1 else 'array'}), got {a.shape}")
+    if finite and not np.all(np.isfinite(a)):
+        raise MechanismError(f"{name}: contains non-finite values (NaN or inf)")
+    return a
+
+
+def as_number(x, name: str, finite: bool = True) -> float:
+    """``x`` as one float (a real scalar, not a bool or a string); raises MechanismError
+    naming ``name`` otherwise, or when it is not finite (``finite=True``)."""
+    if isinstance(x, np.ndarray) and x.ndim == 0:
+        x = x[()]
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real):
+        raise MechanismError(f"{name}: expected a number, got {str(x)[:60]}")
+    try:
+        v = float(x)
+    except (TypeError, ValueError, OverflowError):
+        raise MechanismError(f"{name}: expected a number, got {str(x)[:60]}") from None
+    if finite and not np.isfinite(v):
+        raise MechanismError(f"{name}: expected a finite number, got {v}")
+    return v
+
+
+def as_index(x, name: str) -> int:
+    """``x`` as a Python int (integers only: not bools, floats or strings)."""
+    if isinstance(x, (bool, np.bool_)) or not isinstance(x, (int, np.integer)):
+        raise MechanismError(f"{name}: expected an integer index, got {x!r}")
+    return int(x)
+
+
+def _broadcast(name, *shapes):
+    try:
+        return np.broadcast_shapes(*shapes)
+    except ValueError:
+        raise MechanismError(f"{name}: batch shapes {', '.join(map(str, shapes))} do not "
+                             "broadcast") from None
+
+
 def skew(p: np.ndarray) -> np.ndarray:
     """Skew-symmetric matrix ``[p]×`` of a 3-vector, shape ``(..., 3)`` → ``(..., 3, 3)``."""
-    p = np.asarray(p, dtype=float)
+    p = as_array(p, "skew: p", (3,), finite=False)
     out = np.zeros(p.shape[:-1] + (3, 3))
     x, y, w = p[..., 0], p[..., 1], p[..., 2]
     out[..., 0, 1], out[..., 0, 2] = -w, y
@@ -35,8 +108,8 @@ def skew(p: np.ndarray) -> np.ndarray:
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Cross product of 3-vectors over broadcast leading axes (faster than ``np.cross``
     on small batches)."""
-    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
-    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    a, b = as_array(a, "cross: a", (3,), finite=False), as_array(b, "cross: b", (3,), finite=False)
+    out = np.empty(_broadcast("cross", a.shape, b.shape))
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     out[..., 0] = a1 * b2 - a2 * b1
@@ -47,14 +120,14 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def unskew(S: np.ndarray) -> np.ndarray:
     """The 3-vector of a skew-symmetric matrix (its antisymmetric part), ``(..., 3, 3)`` → ``(..., 3)``."""
-    S = np.asarray(S, dtype=float)
+    S = as_array(S, "unskew: S", (3, 3), finite=False)
     return 0.5 * np.stack([S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0],
                            S[..., 1, 0] - S[..., 0, 1]], -1)
 
 
 def hat(xi: np.ndarray) -> np.ndarray:
     """se(3) matrix of a twist ``(v, ω)``: ``(..., 6)`` → ``(..., 4, 4)``."""
-    xi = np.asarray(xi, dtype=float)
+    xi = as_array(xi, "hat: xi", (6,), finite=False)
     out = np.zeros(xi.shape[:-1] + (4, 4))
     out[..., :3, :3] = skew(xi[..., 3:])
     out[..., :3, 3] = xi[..., :3]
@@ -63,7 +136,7 @@ def hat(xi: np.ndarray) -> np.ndarray:
 
 def vee(X: np.ndarray) -> np.ndarray:
     """Twist ``(v, ω)`` of an se(3) matrix: ``(..., 4, 4)`` → ``(..., 6)``."""
-    X = np.asarray(X, dtype=float)
+    X = as_array(X, "vee: X", (4, 4), finite=False)
     return np.concatenate([X[..., :3, 3], unskew(X[..., :3, :3])], -1)
 
 
@@ -72,7 +145,7 @@ def exp_so3(w: np.ndarray) -> np.ndarray:
 
     Uses series expansions for small angles, so it is accurate down to zero.
     """
-    w = np.asarray(w, dtype=float)
+    w = as_array(w, "exp_so3: w", (3,), finite=False)
     th2 = np.sum(w * w, -1)
     th = np.sqrt(th2)
     small = th2 < 1e-8
@@ -88,7 +161,7 @@ def log_so3(R: np.ndarray) -> np.ndarray:
 
     Accurate near 0 (series) and near π (from the symmetric part).
     """
-    R = np.asarray(R, dtype=float)
+    R = as_array(R, "log_so3: R", (3, 3), finite=False)
     v = unskew(R)                      # sin(th) * axis
     s = np.linalg.norm(v, axis=-1)
     th = np.arctan2(s, (np.trace(R, axis1=-2, axis2=-1) - 1) / 2)
@@ -119,7 +192,7 @@ def _left_jacobian_terms(th2):
 
 def exp_se3(xi: np.ndarray) -> np.ndarray:
     """Transform ``exp(ξ^)`` of a twist ``(v, ω)``: ``(..., 6)`` → ``(..., 4, 4)``."""
-    xi = np.asarray(xi, dtype=float)
+    xi = as_array(xi, "exp_se3: xi", (6,))
     w, v = xi[..., 3:], xi[..., :3]
     K = skew(w)
     b, c = _left_jacobian_terms(np.sum(w * w, -1))
@@ -133,7 +206,7 @@ def exp_se3(xi: np.ndarray) -> np.ndarray:
 
 def log_se3(T: np.ndarray) -> np.ndarray:
     """Twist ``(v, ω)`` with ``exp_se3(ξ) = T``, rotation angle in [0, π]: ``(..., 4, 4)`` → ``(..., 6)``."""
-    T = np.asarray(T, dtype=float)
+    T = as_array(T, "log_se3: T", (4, 4), finite=False)
     w = log_so3(T[..., :3, :3])
     th2 = np.sum(w * w, -1)
     small = th2 < 1e-8
@@ -149,15 +222,17 @@ def log_se3(T: np.ndarray) -> np.ndarray:
 
 def rotation(axis: np.ndarray, angle) -> np.ndarray:
     """Rotation by ``angle`` (rad) about a unit ``axis``: broadcasts to ``(..., 3, 3)``."""
-    axis = np.asarray(axis, dtype=float)
+    axis = as_array(axis, "rotation: axis", (3,))
+    angle = as_array(angle, "rotation: angle")
+    _broadcast("rotation: axis and angle", axis.shape[:-1], angle.shape)
     n = np.linalg.norm(axis, axis=-1, keepdims=True)
     if np.any(n < 1e-12):
         raise MechanismError("rotation: axis has zero length; expected a non-zero 3-vector")
-    return exp_so3(axis / n * np.asarray(angle, dtype=float)[..., None])
+    return exp_so3(axis / n * angle[..., None])
 
 
-def _axis_rot(i, j, angle):
-    a = np.asarray(angle, dtype=float)
+def _axis_rot(i, j, angle, name):
+    a = as_array(angle, f"{name}: angle", finite=False)
     c, s = np.cos(a), np.sin(a)
     R = np.zeros(a.shape + (3, 3))
     k = 3 - i - j
@@ -171,24 +246,34 @@ def _axis_rot(i, j, angle):
 
 def rot_x(angle) -> np.ndarray:
     """Rotation about x by ``angle`` (rad), shape ``angle.shape + (3, 3)``."""
-    return _axis_rot(1, 2, angle)
+    return _axis_rot(1, 2, angle, "rot_x")
 
 
 def rot_y(angle) -> np.ndarray:
     """Rotation about y by ``angle`` (rad), shape ``angle.shape + (3, 3)``."""
-    return _axis_rot(2, 0, angle)
+    return _axis_rot(2, 0, angle, "rot_y")
 
 
 def rot_z(angle) -> np.ndarray:
     """Rotation about z by ``angle`` (rad), shape ``angle.shape + (3, 3)``."""
-    return _axis_rot(0, 1, angle)
+    return _axis_rot(0, 1, angle, "rot_z")
 
 
 def transform(R: np.ndarray | None = None, p: np.ndarray | None = None) -> np.ndarray:
     """4x4 transform ``[[R, p], [0, 1]]`` from a rotation ``(..., 3, 3)`` and a translation ``(..., 3)``."""
-    R = _EYE3 if R is None else np.asarray(R, dtype=float)
-    p = np.zeros(3) if p is None else np.asarray(p, dtype=float)
-    shape = np.broadcast_shapes(R.shape[:-2], p.shape[:-1])
+    R = _EYE3 if R is None else as_array(R, "transform: R", (3, 3))
+    p = np.zeros(3) if p is None else as_array(p, "transform: p", (3,))
+    return _transform(R, p, _broadcast("transform: R and p", R.shape[:-2], p.shape[:-1]))
+
+
+def _transform(R, p=None, shape=None):
+    """:func:`transform` without checks (engine-internal, hot path)."""
+    if R is None:
+        R = _EYE3
+    if p is None:
+        p = np.zeros(3)
+    if shape is None:
+        shape = np.broadcast_shapes(R.shape[:-2], p.shape[:-1])
     out = np.zeros(shape + (4, 4))
     out[..., :3, :3] = R
     out[..., :3, 3] = p
@@ -198,19 +283,19 @@ def transform(R: np.ndarray | None = None, p: np.ndarray | None = None) -> np.nd
 
 def translation(p: np.ndarray) -> np.ndarray:
     """Pure translation by ``p`` ``(..., 3)`` → ``(..., 4, 4)``."""
-    return transform(None, p)
+    return transform(None, as_array(p, "translation: p", (3,)))
 
 
 def inverse(T: np.ndarray) -> np.ndarray:
     """Inverse of rigid transforms ``(..., 4, 4)`` (uses Rᵀ, not a general inverse)."""
-    T = np.asarray(T, dtype=float)
+    T = as_array(T, "inverse: T", (4, 4), finite=False)
     Rt = np.swapaxes(T[..., :3, :3], -1, -2)
-    return transform(Rt, -(Rt @ T[..., :3, 3:4])[..., 0])
+    return _transform(Rt, -(Rt @ T[..., :3, 3:4])[..., 0])
 
 
 def adjoint(T: np.ndarray) -> np.ndarray:
     """6x6 adjoint of ``T`` for twists ``(v, ω)``: ``Ad_T ξ = vee(T ξ^ T⁻¹)``."""
-    T = np.asarray(T, dtype=float)
+    T = as_array(T, "adjoint: T", (4, 4), finite=False)
     R, p = T[..., :3, :3], T[..., :3, 3]
     out = np.zeros(T.shape[:-2] + (6, 6))
     out[..., :3, :3] = R
@@ -221,7 +306,7 @@ def adjoint(T: np.ndarray) -> np.ndarray:
 
 def ad(xi: np.ndarray) -> np.ndarray:
     """6x6 matrix of the Lie bracket ``ad_ξ η = [ξ, η]`` for twists ``(v, ω)``."""
-    xi = np.asarray(xi, dtype=float)
+    xi = as_array(xi, "ad: xi", (6,), finite=False)
     W, V = skew(xi[..., 3:]), skew(xi[..., :3])
     out = np.zeros(xi.shape[:-1] + (6, 6))
     out[..., :3, :3] = W
@@ -240,11 +325,13 @@ def check_transform(T, name: str = "transform", tol: float = 1e-9) -> np.ndarray
         last row is not ``(0, 0, 0, 1)`` or the rotation block is not a proper
         rotation to ``tol``.  The message names ``name``.
     """
-    T = np.asarray(T, dtype=float)
+    T = as_array(T, name, finite=False)
     if T.shape[-2:] != (4, 4):
         raise MechanismError(f"{name}: expected a 4x4 transform, got shape {T.shape}")
     if not np.all(np.isfinite(T)):
-        raise MechanismError(f"{name}: contains non-finite entries")
+        raise MechanismError(f"{name}: contains non-finite entries (NaN or inf)")
+    if T.size == 0:
+        return T
     if np.max(np.abs(T[..., 3, :] - [0, 0, 0, 1])) > tol:
         raise MechanismError(f"{name}: last row must be (0, 0, 0, 1)")
     R = T[..., :3, :3]
@@ -276,9 +363,9 @@ def frame_from_points(origin, x_point, z_point) -> np.ndarray:
         If ``z_point`` coincides with ``origin`` or the three points are
         collinear (relative tolerance 1e-9 of the points' spread).
     """
-    o, xp, zp = (np.asarray(a, dtype=float) for a in (origin, x_point, z_point))
-    if o.shape[-1:] != (3,) or xp.shape[-1:] != (3,) or zp.shape[-1:] != (3,):
-        raise MechanismError("frame_from_points: origin, x_point and z_point must be 3-vectors")
+    o, xp, zp = (as_array(a, f"frame_from_points: {n}", (3,)) for a, n in
+                 ((origin, "origin"), (x_point, "x_point"), (z_point, "z_point")))
+    _broadcast("frame_from_points: origin, x_point and z_point", o.shape, xp.shape, zp.shape)
     z = zp - o
     x = xp - o
     zn = np.linalg.norm(z, axis=-1, keepdims=True)
@@ -294,7 +381,7 @@ def frame_from_points(origin, x_point, z_point) -> np.ndarray:
                              "(or x_point coincides with origin); expected x_point off the Z axis")
     x = x / xn
     y = cross(z, x)
-    return transform(np.stack([x, y, z], -1), o)
+    return _transform(np.stack([x, y, z], -1), o)
 
 
 def euler_zxz(R: np.ndarray) -> np.ndarray:
@@ -303,7 +390,7 @@ def euler_zxz(R: np.ndarray) -> np.ndarray:
     Output only (the solver never uses them).  At the singular ``θ = 0`` or ``π``
     only ``ψ ± φ`` is defined; then ``φ = 0`` is returned.  Shape ``(..., 3)``.
     """
-    R = np.asarray(R, dtype=float)
+    R = as_array(R, "euler_zxz: R", (3, 3), finite=False)
     th = np.arctan2(np.hypot(R[..., 0, 2], R[..., 1, 2]), R[..., 2, 2])
     sing = np.hypot(R[..., 0, 2], R[..., 1, 2]) < 1e-12
     psi = np.where(sing, np.arctan2(R[..., 1, 0], R[..., 0, 0]), np.arctan2(R[..., 0, 2], -R[..., 1, 2]))

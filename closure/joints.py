@@ -36,7 +36,7 @@ from functools import cached_property
 import numpy as np
 
 from .errors import MechanismError
-from .frames import euler_zxz, exp_so3, inverse, rot_y, rot_z, transform
+from .frames import _transform, euler_zxz, exp_so3, inverse, rot_y, rot_z, transform
 
 __all__ = ["Joint", "JOINT_KINDS"]
 
@@ -107,16 +107,16 @@ class Joint:
         """``A(q)`` for a batch: ``q`` is ``(B, nq)``, ``rot`` is ``(B, 3, 3)`` for S joints."""
         k = self.kind
         if k == "S":
-            return transform(rot)
+            return _transform(rot)
         if k == "R":
-            return transform(rot_z(q[:, 0]))
+            return _transform(rot_z(q[:, 0]))
         if k == "P":
-            return transform(None, np.stack([0 * q[:, 0], 0 * q[:, 0], q[:, 0]], -1))
+            return _transform(None, np.stack([0 * q[:, 0], 0 * q[:, 0], q[:, 0]], -1))
         if k in "CH":
             s = q[:, 1] if k == "C" else self.pitch * q[:, 0]
-            return transform(rot_z(q[:, 0]), np.stack([0 * s, 0 * s, s], -1))
+            return _transform(rot_z(q[:, 0]), np.stack([0 * s, 0 * s, s], -1))
         # U
-        return transform(rot_z(q[:, 0]) @ _U_MID[:3, :3] @ rot_z(q[:, 1]))
+        return _transform(rot_z(q[:, 0]) @ _U_MID[:3, :3] @ rot_z(q[:, 1]))
 
     def columns(self, q: np.ndarray):
         """Unit twists of the joint's velocity coordinates.
@@ -138,7 +138,7 @@ class Joint:
             return [(None, _RZ + self.pitch * _TZ, ())]
         if k == "S":
             return [(None, _RX, ()), (None, _RY, ()), (None, _RZ, ())]
-        return [(None, _RZ, ()), (transform(rot_z(q[:, 0])) @ _U_MID, _RZ, (0,))]
+        return [(None, _RZ, ()), (_transform(rot_z(q[:, 0])) @ _U_MID, _RZ, (0,))]
 
     def update(self, q: np.ndarray, rot: np.ndarray | None, dv: np.ndarray):
         """Apply velocity-coordinate increments ``dv`` ``(B, nv)``; returns new ``(q, rot)``."""

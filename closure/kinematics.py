@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import MechanismError
-from .frames import cross
+from .frames import as_array, as_index, cross
 from .solver import _expected_rank, _pinv_parts
 
 __all__ = ["analogs", "bracket", "link_twists", "point_analogs", "joint_analogs"]
@@ -71,6 +71,7 @@ def analogs(mech, pose, second: bool = True, ks=None):
     second : numpy.ndarray, shape (B, nv, ni, ni) or None
         ``d²q_c / dx_i dx_j``.
     """
+    _check_pose(mech, pose, "analogs")
     t = mech.tree
     ks = ks or pose.kinematics()
     J = mech.jacobian(ks)
@@ -105,12 +106,24 @@ def analogs(mech, pose, second: bool = True, ks=None):
     return first, sec
 
 
+def _check_pose(mech, pose, what):
+    from .pose import Pose
+    if not isinstance(pose, Pose):
+        raise MechanismError(f"{what}: pose must be a Pose (from Mechanism.solve), got "
+                             f"{type(pose).__name__}")
+    if pose.mechanism is not mech:
+        raise MechanismError(f"{what}: pose belongs to another mechanism")
+
+
 def joint_analogs(mech, pose, joint: str, index: int = 0, input: int = 0):
     """Transfer functions of one joint coordinate with respect to one input.
 
     Returns ``(value, first, second)``, each ``(B,)`` (``()`` for a scalar pose).
     """
+    _check_pose(mech, pose, "joint_analogs")
     j = mech.joint(joint)
+    index = as_index(index, "joint_analogs: index")
+    input = as_index(input, "joint_analogs: input")
     if j.kind == "S":
         raise MechanismError(f"joint_analogs: {joint!r} is spherical; use analogs() for its "
                              "angular-velocity coordinates")
@@ -142,9 +155,11 @@ def point_analogs(mech, pose, link: str, xyz):
     second : (B, 3, ni, ni)
         ``d²p/dx_i dx_j``.
     """
-    if link not in mech.links:
-        raise MechanismError(f"no link named {link!r}; links: {', '.join(mech.links)}")
-    p = np.asarray(xyz, dtype=float)
+    _check_pose(mech, pose, "point_analogs")
+    if not isinstance(link, str) or link not in mech.links:
+        raise MechanismError(f"point_analogs: no link named {link!r}; links: "
+                             f"{', '.join(mech.links)}")
+    p = as_array(xyz, "point_analogs: xyz")
     if p.shape != (3,):
         raise MechanismError(f"point_analogs: xyz must be a 3-vector, got shape {p.shape}")
     t = mech.tree

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import MechanismError
-from .frames import adjoint, check_transform, inverse, log_se3
+from .frames import adjoint, as_array, check_transform, inverse, log_se3
 from .joints import JOINT_KINDS, Joint
 
 __all__ = ["Mechanism"]
@@ -77,6 +77,11 @@ class Mechanism:
         if isinstance(links, str):
             raise MechanismError(f"links: expected an iterable of link names, got the string "
                                  f"{links!r} (write [{links!r}] for one link)")
+        try:
+            links = list(links)
+        except TypeError:
+            raise MechanismError(f"links: expected an iterable of link names, got "
+                                 f"{type(links).__name__} {links!r}") from None
         if not isinstance(ground, str) or not ground:
             raise MechanismError(f"ground: expected a non-empty string, got {ground!r}")
         self.ground = ground
@@ -152,11 +157,7 @@ class Mechanism:
                                      "(length per radian)")
         elif pitch is not None:
             raise MechanismError(f"joint {name!r}: pitch is only for helical (H) joints")
-        try:
-            at_arr = np.asarray(at, dtype=float)
-        except (TypeError, ValueError):
-            raise MechanismError(f"joint {name!r}: at must be a 4x4 transform or a pair of them, "
-                                 f"got {type(at).__name__}") from None
+        at_arr = as_array(at, f"joint {name!r}: at (a 4x4 transform or a pair of them)")
         if at_arr.shape not in ((4, 4), (2, 4, 4)):
             raise MechanismError(f"joint {name!r}: at must have shape (4, 4) or (2, 4, 4) (a pair "
                                  f"of frames on link a and link b), got {at_arr.shape}")
@@ -512,11 +513,17 @@ class Mechanism:
     def solve(self, inputs, guess=None, **kw):
         """Solve the loops for one input value or a batch: see :func:`closure.solve`."""
         from .solver import solve
+        inputs = as_array(inputs, "inputs", finite=False)   # the solver checks shape and values
+        if inputs.size == 0:
+            raise MechanismError("inputs: empty; expected at least one input value")
         return solve(self, inputs, guess, **kw)
 
     def sweep(self, values, guess=None, **kw):
         """Continuation along the inputs into a table: see :func:`closure.sweep`."""
         from .solver import sweep
+        values = as_array(values, "values", finite=False)   # the solver checks shape and values
+        if values.size == 0:
+            raise MechanismError("values: empty; expected at least one input value")
         return sweep(self, values, guess, **kw)
 
     def analogs(self, pose, second: bool = True):
@@ -527,15 +534,24 @@ class Mechanism:
     def velocities(self, pose, rates) -> np.ndarray:
         """Coordinate rates ``(B, nv)`` for input rates ``(B, ni)`` or ``(ni,)``."""
         first, _ = self.analogs(pose, second=False)
-        return np.einsum("bci,bi->bc", first, np.broadcast_to(rates, first.shape[:1] +
-                                                              first.shape[2:]))
+        xd = self._rates(rates, "rates", first.shape[:1] + first.shape[2:])
+        return np.einsum("bci,bi->bc", first, xd)
 
     def accelerations(self, pose, rates, accels) -> np.ndarray:
         """Coordinate accelerations ``(B, nv)`` for input rates and accelerations ``(B, ni)``."""
         first, sec = self.analogs(pose)
         shp = first.shape[:1] + first.shape[2:]
-        xd, xdd = np.broadcast_to(rates, shp), np.broadcast_to(accels, shp)
+        xd, xdd = self._rates(rates, "rates", shp), self._rates(accels, "accels", shp)
         return np.einsum("bci,bi->bc", first, xdd) + np.einsum("bcij,bi,bj->bc", sec, xd, xd)
+
+    @staticmethod
+    def _rates(v, name, shape):
+        a = as_array(v, name)
+        try:
+            return np.broadcast_to(a, shape)
+        except ValueError:
+            raise MechanismError(f"{name}: expected shape (B, n_inputs) = {shape} or "
+                                 f"({shape[1]},), got {a.shape}") from None
 
     def __repr__(self) -> str:
         kinds = "".join(j.kind for j in self.joints)

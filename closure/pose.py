@@ -7,6 +7,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import MechanismError
+from .frames import as_array
 
 __all__ = ["Pose"]
 
@@ -120,7 +121,7 @@ class Pose:
     def link_frame(self, link: str) -> np.ndarray:
         """World pose ``(B, 4, 4)`` of ``link`` (its frame is the ground frame at assembly)."""
         m = self.mechanism
-        if link not in m.links:
+        if not isinstance(link, str) or link not in m.links:
             raise MechanismError(f"no link named {link!r}; links: {', '.join(m.links)}")
         return self._out(self.kinematics(twists=False)["link"][:, m.links.index(link)])
 
@@ -128,7 +129,7 @@ class Pose:
         """World position ``(B, 3)`` of a point of ``link`` given by its ground coordinates
         at the assembly pose."""
         T = np.asarray(self.link_frame(link))
-        p = np.asarray(xyz, dtype=float)
+        p = as_array(xyz, "point: xyz")
         if p.shape != (3,):
             raise MechanismError(f"point: xyz must be a 3-vector, got shape {p.shape}")
         return T[..., :3, :3] @ p + T[..., :3, 3]

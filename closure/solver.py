@@ -255,7 +255,14 @@ def _inputs_array(mech, inputs):
     n = len(mech.inputs)
     if n == 0:
         raise MechanismError("no inputs declared: call add_input first")
-    x = np.asarray(inputs, dtype=float)
+    try:
+        x = np.asarray(inputs, dtype=float)
+    except (TypeError, ValueError):
+        raise MechanismError(f"inputs: expected numbers (rad or length) for {n} input(s) "
+                             f"{mech.input_labels()}, got {inputs!r:.80}") from None
+    if x.size == 0:
+        raise MechanismError(f"inputs: empty; expected at least one value for {n} input(s) "
+                             f"{mech.input_labels()}")
     scalar = x.ndim == 0 or (x.ndim == 1 and n > 1 and x.shape[0] == n)
     if x.ndim == 0:
         x = x.reshape(1, 1)
@@ -291,6 +298,9 @@ def _input_scale(mech) -> np.ndarray:
     cols = mech.input_columns()
     return np.where(np.isin(cols, mech.tree.length_cols), mech.tree.scale, 1.0)
 
+
+#: longest input path (dimensionless: rad, or length / scale) a continuation follows
+MAX_PATH = 1e4
 
 #: beyond this condition number a pose's own first analogs are not trusted as the path's
 #: tangent (at a singular configuration they are not unique): the previous tangent is kept
@@ -331,6 +341,12 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
     x_to = np.broadcast_to(np.asarray(x_to, float), x_from.shape).copy()
     span = x_to - x_from
     span_s = np.max(np.abs(span / xs), axis=1) if span.size else np.zeros(B)
+    if span_s.max(initial=0.0) > MAX_PATH:
+        i = int(np.argmax(span_s))
+        raise MechanismError(f"inputs: {x_to[i].tolist()} lie {span_s[i]:.3g} (dimensionless) "
+                             f"from the guess at {x_from[i].tolist()}; continuation follows "
+                             f"paths up to {MAX_PATH:g}: give a guess nearer the inputs, or "
+                             "continuation=False")
     q, rot = start.q.copy(), start.rot.copy()
     x_cur = x_from.copy()
     res, cond = start.residual.astype(float).copy(), start.condition.astype(float).copy()

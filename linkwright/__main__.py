@@ -1,6 +1,4 @@
 """``python -m linkwright``: the same as the ``linkwright`` command."""
-import sys
+from .cli import console
 
-from .cli import main
-
-sys.exit(main())
+console()

@@ -87,8 +87,9 @@ def jsonable(value):
         return str(value)
 
 
-def main(argv: list[str] | None = None) -> int:
-    with catch_signals():
+def main(argv: list[str] | None = None, *, _process: bool = False) -> int:
+    """Run the ``linkwright`` command line; returns the exit status."""
+    with catch_signals(restore=not _process):
         state: dict = {}
         try:
             args = _parser().parse_args(argv)
@@ -110,6 +111,12 @@ def main(argv: list[str] | None = None) -> int:
                 where = "nothing was written"
             print(f"linkwright: interrupted by {name}; {where}", file=sys.stderr, flush=True)
             return getattr(e, "exit_code", 130)
+
+
+def console() -> None:
+    """The ``linkwright`` console script: :func:`main`, then exit with its status (signals
+    that arrive once the outcome is decided are ignored)."""
+    sys.exit(main(_process=True))
 
 
 def _dispatch(args, state: dict) -> int:

@@ -36,9 +36,11 @@ def _raise(signum, frame):
 
 
 @contextmanager
-def catch_signals():
+def catch_signals(restore: bool = True):
     """Inside, SIGINT and SIGTERM raise :class:`Interrupted` (in the main thread only);
-    the previous handlers are restored on exit."""
+    on exit the previous handlers are restored, or (``restore=False``, for a process that
+    is about to end) the signals are ignored, so that a signal arriving after the run's
+    outcome is decided cannot change its exit status."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -47,7 +49,7 @@ def catch_signals():
         yield
     finally:
         for s, h in old.items():
-            signal.signal(s, signal.SIG_DFL if h is None else h)
+            signal.signal(s, (signal.SIG_DFL if h is None else h) if restore else signal.SIG_IGN)
 
 
 @contextmanager

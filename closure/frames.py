@@ -96,7 +96,7 @@ def _broadcast(name, *shapes):
 
 def skew(p: np.ndarray) -> np.ndarray:
     """Skew-symmetric matrix ``[p]×`` of a 3-vector, shape ``(..., 3)`` → ``(..., 3, 3)``."""
-    p = as_array(p, "skew: p", (3,), finite=False)
+    p = as_array(p, "skew: p", (3,))
     out = np.zeros(p.shape[:-1] + (3, 3))
     x, y, w = p[..., 0], p[..., 1], p[..., 2]
     out[..., 0, 1], out[..., 0, 2] = -w, y
@@ -108,7 +108,7 @@ def skew(p: np.ndarray) -> np.ndarray:
 def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Cross product of 3-vectors over broadcast leading axes (faster than ``np.cross``
     on small batches)."""
-    a, b = as_array(a, "cross: a", (3,), finite=False), as_array(b, "cross: b", (3,), finite=False)
+    a, b = as_array(a, "cross: a", (3,)), as_array(b, "cross: b", (3,))
     out = np.empty(_broadcast("cross", a.shape, b.shape))
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
@@ -120,14 +120,14 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def unskew(S: np.ndarray) -> np.ndarray:
     """The 3-vector of a skew-symmetric matrix (its antisymmetric part), ``(..., 3, 3)`` → ``(..., 3)``."""
-    S = as_array(S, "unskew: S", (3, 3), finite=False)
+    S = as_array(S, "unskew: S", (3, 3))
     return 0.5 * np.stack([S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0],
                            S[..., 1, 0] - S[..., 0, 1]], -1)
 
 
 def hat(xi: np.ndarray) -> np.ndarray:
     """se(3) matrix of a twist ``(v, ω)``: ``(..., 6)`` → ``(..., 4, 4)``."""
-    xi = as_array(xi, "hat: xi", (6,), finite=False)
+    xi = as_array(xi, "hat: xi", (6,))
     out = np.zeros(xi.shape[:-1] + (4, 4))
     out[..., :3, :3] = skew(xi[..., 3:])
     out[..., :3, 3] = xi[..., :3]
@@ -136,7 +136,7 @@ def hat(xi: np.ndarray) -> np.ndarray:
 
 def vee(X: np.ndarray) -> np.ndarray:
     """Twist ``(v, ω)`` of an se(3) matrix: ``(..., 4, 4)`` → ``(..., 6)``."""
-    X = as_array(X, "vee: X", (4, 4), finite=False)
+    X = as_array(X, "vee: X", (4, 4))
     return np.concatenate([X[..., :3, 3], unskew(X[..., :3, :3])], -1)
 
 
@@ -145,7 +145,7 @@ def exp_so3(w: np.ndarray) -> np.ndarray:
 
     Uses series expansions for small angles, so it is accurate down to zero.
     """
-    w = as_array(w, "exp_so3: w", (3,), finite=False)
+    w = as_array(w, "exp_so3: w", (3,))
     th2 = np.sum(w * w, -1)
     th = np.sqrt(th2)
     small = th2 < 1e-8
@@ -161,7 +161,7 @@ def log_so3(R: np.ndarray) -> np.ndarray:
 
     Accurate near 0 (series) and near π (from the symmetric part).
     """
-    R = as_array(R, "log_so3: R", (3, 3), finite=False)
+    R = as_array(R, "log_so3: R", (3, 3))
     v = unskew(R)                      # sin(th) * axis
     s = np.linalg.norm(v, axis=-1)
     th = np.arctan2(s, (np.trace(R, axis1=-2, axis2=-1) - 1) / 2)
@@ -206,7 +206,7 @@ def exp_se3(xi: np.ndarray) -> np.ndarray:
 
 def log_se3(T: np.ndarray) -> np.ndarray:
     """Twist ``(v, ω)`` with ``exp_se3(ξ) = T``, rotation angle in [0, π]: ``(..., 4, 4)`` → ``(..., 6)``."""
-    T = as_array(T, "log_se3: T", (4, 4), finite=False)
+    T = as_array(T, "log_se3: T", (4, 4))
     w = log_so3(T[..., :3, :3])
     th2 = np.sum(w * w, -1)
     small = th2 < 1e-8
@@ -232,7 +232,7 @@ def rotation(axis: np.ndarray, angle) -> np.ndarray:
 
 
 def _axis_rot(i, j, angle, name):
-    a = as_array(angle, f"{name}: angle", finite=False)
+    a = as_array(angle, f"{name}: angle")
     c, s = np.cos(a), np.sin(a)
     R = np.zeros(a.shape + (3, 3))
     k = 3 - i - j
@@ -288,14 +288,14 @@ def translation(p: np.ndarray) -> np.ndarray:
 
 def inverse(T: np.ndarray) -> np.ndarray:
     """Inverse of rigid transforms ``(..., 4, 4)`` (uses Rᵀ, not a general inverse)."""
-    T = as_array(T, "inverse: T", (4, 4), finite=False)
+    T = as_array(T, "inverse: T", (4, 4))
     Rt = np.swapaxes(T[..., :3, :3], -1, -2)
     return _transform(Rt, -(Rt @ T[..., :3, 3:4])[..., 0])
 
 
 def adjoint(T: np.ndarray) -> np.ndarray:
     """6x6 adjoint of ``T`` for twists ``(v, ω)``: ``Ad_T ξ = vee(T ξ^ T⁻¹)``."""
-    T = as_array(T, "adjoint: T", (4, 4), finite=False)
+    T = as_array(T, "adjoint: T", (4, 4))
     R, p = T[..., :3, :3], T[..., :3, 3]
     out = np.zeros(T.shape[:-2] + (6, 6))
     out[..., :3, :3] = R
@@ -306,7 +306,7 @@ def adjoint(T: np.ndarray) -> np.ndarray:
 
 def ad(xi: np.ndarray) -> np.ndarray:
     """6x6 matrix of the Lie bracket ``ad_ξ η = [ξ, η]`` for twists ``(v, ω)``."""
-    xi = as_array(xi, "ad: xi", (6,), finite=False)
+    xi = as_array(xi, "ad: xi", (6,))
     W, V = skew(xi[..., 3:]), skew(xi[..., :3])
     out = np.zeros(xi.shape[:-1] + (6, 6))
     out[..., :3, :3] = W
@@ -390,7 +390,7 @@ def euler_zxz(R: np.ndarray) -> np.ndarray:
     Output only (the solver never uses them).  At the singular ``θ = 0`` or ``π``
     only ``ψ ± φ`` is defined; then ``φ = 0`` is returned.  Shape ``(..., 3)``.
     """
-    R = as_array(R, "euler_zxz: R", (3, 3), finite=False)
+    R = as_array(R, "euler_zxz: R", (3, 3))
     th = np.arctan2(np.hypot(R[..., 0, 2], R[..., 1, 2]), R[..., 2, 2])
     sing = np.hypot(R[..., 0, 2], R[..., 1, 2]) < 1e-12
     psi = np.where(sing, np.arctan2(R[..., 1, 0], R[..., 0, 0]), np.arctan2(R[..., 0, 2], -R[..., 1, 2]))

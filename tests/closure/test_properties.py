@@ -384,3 +384,18 @@ def test_analogs_match_central_differences_of_a_sweep(name, x0):
     np.testing.assert_allclose(d1[0, :, 0], (pts[2] - pts[0]) / (2 * h), atol=1e-5)
     np.testing.assert_allclose(d2[0, :, 0, 0], (pts[2] - 2 * pts[1] + pts[0]) / h ** 2,
                                atol=1e-4 * (1 + np.abs(d2).max()))
+
+
+@pytest.mark.parametrize("name, shape", [
+    ("skew", (3,)), ("cross", (3,)), ("hat", (6,)), ("vee", (4, 4)), ("exp_so3", (3,)),
+    ("log_so3", (3, 3)), ("log_se3", (4, 4)), ("inverse", (4, 4)), ("adjoint", (4, 4)),
+    ("ad", (6,)), ("euler_zxz", (3, 3)), ("rot_x", ()), ("rot_z", ())])
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_maths_helpers_refuse_non_finite_values_naming_the_argument(name, shape, bad):
+    import closure
+    f = getattr(closure, name)
+    x = np.zeros(shape) if shape else np.array(0.0)
+    x[(0,) * len(shape)] = bad
+    args = (x, np.ones(3)) if name == "cross" else (x,)
+    with pytest.raises(MechanismError, match=f"{name}: .*non-finite"):
+        f(*args)

@@ -30,7 +30,7 @@ from .errors import ClosureError, MechanismError
 from .frames import as_array, as_index, as_number, cross, skew
 from .kinematics import _bias, analogs, link_twists
 from .pose import Pose
-from .solver import TANGENT_COND, SolverOptions
+from .solver import TANGENT_COND, SolverOptions, _take_pose
 
 __all__ = ["Body", "Dynamics", "pseudo_inertia"]
 
@@ -421,7 +421,7 @@ class Dynamics:
         en = self.energy(pose, XD)
         for i in np.nonzero(pose.condition > TANGENT_COND)[0]:     # singular rows: the limit
             k = min(np.searchsorted(run["t"], t_out[i], side="right") - 1, len(run["t"]) - 1)
-            lim = regular_limit(mech, _one(pose, i), run["tangents"][k],
+            lim = regular_limit(mech, _take_pose(pose, [i]), run["tangents"][k],
                                 lambda p: tuple(self.energy(p, np.broadcast_to(XD[i], (len(p), n)))
                                                 [key] for key in ("kinetic", "gravity", "spring",
                                                                   "total")), opts)
@@ -449,14 +449,6 @@ class Dynamics:
         out.attrs["status"] = "completed" if sol.status == 0 else "dead point"
         out.attrs["message"] = sol.message
         return out
-
-
-def _one(pose: Pose, i: int) -> Pose:
-    """Element ``i`` of a batch of poses."""
-    from .solver import _ks_take
-    return Pose(pose.mechanism, pose.inputs[i:i + 1], pose.q[i:i + 1], pose.rot[i:i + 1],
-                pose.residual[i:i + 1], pose.iterations[i:i + 1], pose.condition[i:i + 1],
-                pose.status[i:i + 1], _ks=_ks_take(pose.kinematics(), [i]))
 
 
 def _finite_vector(v, n, name):

@@ -19,14 +19,15 @@ A singular configuration is told apart by what the tangent does there:
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 import scipy.integrate as si
 
 from .errors import ClosureError, MechanismError
 from .pose import Pose
-from .solver import TANGENT_COND, SolverOptions, _apply, _status, branch_tangent, newton
+from .solver import (TANGENT_COND, SolverOptions, _cat_poses, _status, branch_tangent, newton,
+                     predict)
 
 __all__ = ["IntegrationResult", "METHODS"]
 
@@ -50,9 +51,8 @@ class IntegrationResult:
         The integrator did not fail (a dead-point stop is a success).
     nfev : int
         Right-hand-side evaluations.
-    steps, rejected : int
-        Accepted steps, and right-hand-side calls beyond the accepted steps' own
-        (a measure of step rejections).
+    steps : int
+        Accepted steps.
     t_end : float
         Time reached (s).
     """
@@ -65,7 +65,6 @@ class IntegrationResult:
     nfev: int
     steps: int
     t_end: float
-    extra: dict = field(default_factory=dict, repr=False)
 
 
 class PoseTracker:
@@ -81,7 +80,6 @@ class PoseTracker:
         self.m, self.opts = mech, opts
         self.pose = pose
         self.first = branch_tangent(mech, pose, direction, opts)
-        self._inq = mech.input_q_columns()
 
     def tangent(self, pose: Pose, first: np.ndarray) -> None:
         """Adopt ``first`` (nv, ni) as the tangent at ``pose`` unless it is singular."""
@@ -100,13 +98,10 @@ def solve_along(mech, base: Pose, first: np.ndarray, X: np.ndarray, opts: Solver
     ``first`` (nv, n): first-order predictor, then one batched Newton correction.
 
     Raises ClosureError when a pose does not close (the inputs lie past a fold)."""
-    t = mech.tree
-    dv = (X - base.inputs[0]) @ first.T
-    dv[:, t.length_cols] /= t.scale
     B = X.shape[0]
-    q, rot = _apply(mech, (np.repeat(base.q, B, 0), np.repeat(base.rot, B, 0)), dv)
-    q[:, mech.input_q_columns()] = X
-    st, r, it, c, conv, ks = newton(mech, (q, rot), opts)
+    pred, _ = predict(mech, (np.repeat(base.q, B, 0), np.repeat(base.rot, B, 0)),
+                      np.broadcast_to(first, (B,) + first.shape), base.inputs, X)
+    st, r, it, c, conv, ks = newton(mech, pred, opts)
     bad = ~conv | (r > opts.rtol)
     if bad.any():
         i = int(np.argmax(bad))
@@ -211,36 +206,23 @@ def poses_at(mech, run: dict, t_out: np.ndarray, opts: SolverOptions):
     ts, dense = run["t"], run["dense"]
     n = run["tangents"][0].shape[1]
     if t_out is None:
-        P = run["poses"]
-        return run["t"], run["y"].T, _cat_poses(mech, P)
+        return run["t"], run["y"].T, _cat_poses(run["poses"])
     seg = np.clip(np.searchsorted(ts, t_out, side="right") - 1, 0, len(ts) - 1)
     Y = np.empty((run["y"].shape[1], t_out.size))
     for k in np.unique(seg):                      # one dense call per step holding outputs
         sel = seg == k
         Y[:, sel] = dense[k](t_out[sel]) if k < len(dense) else run["y"][k][:, None]
     X = Y[:n].T
-    base = _cat_poses(mech, [run["poses"][k] for k in seg])
-    first = np.array([run["tangents"][k] for k in seg])
-    dv = np.einsum("bci,bi->bc", first, X - base.inputs)
-    dv[:, mech.tree.length_cols] /= mech.tree.scale
-    q, rot = _apply(mech, base.state, dv)
-    q[:, mech.input_q_columns()] = X
-    st, r, it, c, conv, ks = newton(mech, (q, rot), opts)
+    base = _cat_poses([run["poses"][k] for k in seg])
+    pred, _ = predict(mech, base.state, np.array([run["tangents"][k] for k in seg]),
+                      base.inputs, X)
+    st, r, it, c, conv, ks = newton(mech, pred, opts)
     if not conv.all() or (r > opts.rtol).any():
         i = int(np.argmax(~conv | (r > opts.rtol)))
         raise ClosureError(f"simulate: the loops do not close at output time {t_out[i]:.6g} "
                            f"(residual {r[i]:.2e}, condition {c[i]:.2e})")
     return t_out, Y, Pose(mech, X.copy(), st[0], st[1], r, it, c, _status(r, c, conv, opts),
                           _ks=ks)
-
-
-def _cat_poses(mech, P):
-    from .solver import _ks_cat
-    return Pose(mech, np.concatenate([p.inputs for p in P]), np.concatenate([p.q for p in P]),
-                np.concatenate([p.rot for p in P]), np.concatenate([p.residual for p in P]),
-                np.concatenate([p.iterations for p in P]),
-                np.concatenate([p.condition for p in P]), np.concatenate([p.status for p in P]),
-                _ks=_ks_cat([p.kinematics() for p in P]))
 
 
 def check_method(method: str) -> None:

@@ -232,19 +232,32 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None):
     return (q, rot), res, its, cond, done, ks_all
 
 
-def predict(mech, pose: Pose, x_new, first=None):
-    """First-order predictor: ``pose`` (one pose) moved along its first analogs to the
-    inputs ``x_new``.  Returns the predicted state ``(q, rot)`` with the inputs set, and
-    the dimensionless step of every velocity coordinate ``(nv,)``."""
-    from .kinematics import analogs  # local: kinematics imports solver helpers
-    if first is None:
-        first = analogs(mech, pose, second=False)[0][0]
-    x_new = np.asarray(x_new, float)
-    dv = first @ (x_new - pose.inputs[0])
-    dv[mech.tree.length_cols] /= mech.tree.scale
-    q, rot = _apply(mech, pose.state, dv[None])
+def predict(mech, state, first, x_from, x_new):
+    """First-order predictor, batched: states ``(q, rot)`` solved at inputs ``x_from``
+    (B, ni) moved along their first analogs ``first`` (B, nv, ni) to the inputs ``x_new``
+    (B, ni).  Returns the predicted state with the inputs set, and the dimensionless
+    step of every velocity coordinate ``(B, nv)``."""
+    t = mech.tree
+    dv = np.einsum("bci,bi->bc", first, x_new - x_from)
+    dv[:, t.length_cols] /= t.scale
+    q, rot = _apply(mech, state, dv)
     q[:, mech.input_q_columns()] = x_new
     return (q, rot), dv
+
+
+def _take_pose(pose: Pose, idx) -> Pose:
+    """Poses ``idx`` of a batch (with their kinematic state)."""
+    idx = np.asarray(idx)
+    return Pose(pose.mechanism, pose.inputs[idx], pose.q[idx], pose.rot[idx],
+                pose.residual[idx], pose.iterations[idx], pose.condition[idx],
+                pose.status[idx], _ks=_ks_take(pose.kinematics(), idx))
+
+
+def _cat_poses(poses) -> Pose:
+    """One batch of the poses of a list of batches (with their kinematic states)."""
+    cat = {f: np.concatenate([getattr(p, f) for p in poses])
+           for f in ("inputs", "q", "rot", "residual", "iterations", "condition", "status")}
+    return Pose(poses[0].mechanism, **cat, _ks=_ks_cat([p.kinematics() for p in poses]))
 
 
 def _norm(r):
@@ -335,7 +348,6 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
     """
     t = mech.tree
     B = len(start)
-    inq = mech.input_q_columns()
     xs = _input_scale(mech)
     x_from = start.inputs.astype(float).copy()
     x_to = np.broadcast_to(np.asarray(x_to, float), x_from.shape).copy()
@@ -378,13 +390,13 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
         dx = x_from[a] + (lam[a] + hh)[:, None] * span[a] - x_cur[a]
         dv = np.einsum("bci,bi->bc", first[a], dx)
         dv[:, t.length_cols] /= t.scale
-        big = np.max(np.abs(dv), axis=1)
-        shrink = np.minimum(1.0, opts.path_step / np.maximum(big, 1e-300))
-        hh, dv, dx, big = hh * shrink, dv * shrink[:, None], dx * shrink[:, None], big * shrink
+        # cap the predicted change of every coordinate at path_step
+        shrink = np.minimum(1.0, opts.path_step / np.maximum(np.max(np.abs(dv), axis=1), 1e-300))
+        hh = hh * shrink
         final = lam[a] + hh >= 1.0
-        xt = np.where(final[:, None], x_to[a], x_cur[a] + dx)
-        pq, prot = _apply(mech, (q[a], rot[a]), dv)
-        pq[:, inq] = xt
+        xt = np.where(final[:, None], x_to[a], x_cur[a] + dx * shrink[:, None])
+        (pq, prot), dv = predict(mech, (q[a], rot[a]), first[a], x_cur[a], xt)
+        big = np.max(np.abs(dv), axis=1)
         st, r, it, c, conv, ks = newton(mech, (pq, prot), step_opts)
         jump = np.max(np.abs(_coord_distance(mech, st, (pq, prot))), axis=1)
         ok = conv & (r <= opts.rtol) & (jump <= 0.5 * big)
@@ -449,11 +461,7 @@ def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions) -> Pose:
     q[:, mech.input_q_columns()] = x0
     st, res, its, cond, conv, ks = newton(mech, (q, rot.copy()), opts)
     pose = Pose(mech, x0, st[0], st[1], res, its, cond, _status(res, cond, conv, opts), _ks=ks)
-    if n == 1 and B > 1:
-        idx = np.zeros(B, dtype=int)
-        pose = Pose(mech, x0[idx], st[0][idx], st[1][idx], res[idx], its[idx], cond[idx],
-                    pose.status[idx], _ks=_ks_take(ks, idx))
-    return pose
+    return _take_pose(pose, np.zeros(B, dtype=int)) if n == 1 and B > 1 else pose
 
 
 def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | None = None,
@@ -561,12 +569,9 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
         status.append("ok")
         cur = nxt
     n = len(poses)
-    reached = np.concatenate([p.inputs for p in poses])
-    pose = Pose(mech, x[:n].copy(), np.concatenate([p.q for p in poses]),
-                np.concatenate([p.rot for p in poses]),
-                np.concatenate([p.residual for p in poses]),
-                np.concatenate([p.iterations for p in poses]),
-                np.concatenate([p.condition for p in poses]), np.zeros(n, int))
+    pose = _cat_poses(poses)
+    reached, pose.inputs = pose.inputs, x[:n].copy()
+    pose.status = _status(pose.residual, pose.condition, np.ones(n, bool), opts)
     df = pose.table()
     df["status"] = status
     for k, lab in enumerate(mech.input_labels()):
@@ -576,13 +581,7 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
         rest["status"] = "not reached"
         df = pd.concat([df, rest], ignore_index=True)
     if return_pose:
-        ok = np.array(status) == "ok"
-        ks = _ks_cat([p.kinematics() for p in poses])
-        pose = Pose(mech, pose.inputs[ok], pose.q[ok], pose.rot[ok], pose.residual[ok],
-                    pose.iterations[ok], pose.condition[ok],
-                    _status(pose.residual[ok], pose.condition[ok], np.ones(ok.sum(), bool), opts),
-                    _ks=_ks_take(ks, np.nonzero(ok)[0]))
-        return df, pose
+        return df, _take_pose(pose, np.nonzero(np.array(status) == "ok")[0])
     return df
 
 

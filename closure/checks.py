@@ -6,7 +6,7 @@ from numbers import Real
 
 import numpy as np
 
-__all__ = ["real_number"]
+__all__ = ["real_array", "real_number"]
 
 
 def real_number(x, name: str, error: type[ValueError], *, positive: bool = False,
@@ -19,7 +19,10 @@ def real_number(x, name: str, error: type[ValueError], *, positive: bool = False
         (isinstance(x, np.ndarray) and x.shape == () and x.dtype.kind in "iuf")
     if not scalar or isinstance(x, (bool, np.bool_)):
         raise error(f"{name}: expected a number{u}, got {type(x).__name__} {x!r}")
-    v = float(x)
+    try:
+        v = float(x)
+    except OverflowError:
+        raise error(f"{name}: expected a finite number{u}, got {x!r:.60}") from None
     if not np.isfinite(v):
         raise error(f"{name}: expected a finite number{u}, got {v}")
     if positive and v <= 0:
@@ -27,3 +30,22 @@ def real_number(x, name: str, error: type[ValueError], *, positive: bool = False
     if nonnegative and v < 0:
         raise error(f"{name}: expected a non-negative number{u}, got {v}")
     return v
+
+
+def real_array(x, name: str, error: type[ValueError], expect: str = "numbers") -> np.ndarray:
+    """``x`` as a float array after checking it holds real numbers (no strings, None,
+    complex values, ragged nesting or objects); shape and finiteness are the caller's.
+
+    Raises ``error`` with a message that starts with ``name`` and says ``expect``."""
+    if isinstance(x, (str, bytes)) or x is None:
+        raise error(f"{name}: expected {expect}, got {type(x).__name__} {x!r}")
+    try:
+        a = np.asarray(x)
+        if a.dtype.kind == "c":
+            raise error(f"{name}: expected real numbers {expect}, got complex values")
+        return a.astype(float, copy=a.dtype.kind not in "biuf")
+    except error:
+        raise
+    except (TypeError, ValueError, OverflowError):
+        raise error(f"{name}: expected {expect}, got {type(x).__name__} that is not a numeric "
+                    "array") from None

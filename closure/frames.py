@@ -8,11 +8,11 @@ velocity of the body point at the origin of the frame the twist is written in.
 """
 from __future__ import annotations
 
-import numbers
 
 import numpy as np
 
 from .errors import MechanismError
+from .checks import real_array, real_number
 
 __all__ = [
     "skew", "cross", "unskew", "hat", "vee", "rotation", "rot_x", "rot_y", "rot_z",
@@ -44,15 +44,7 @@ def as_array(x, name: str, tail: tuple = (), finite: bool = True) -> np.ndarray:
         Naming ``name``: not numbers (strings, ragged nesting, objects), a wrong
         trailing shape, or non-finite entries.
     """
-    if isinstance(x, (str, bytes)):
-        raise MechanismError(f"{name}: expected numbers, got the string {x!r}")
-    if x is None:
-        raise MechanismError(f"{name}: expected numbers, got None")
-    try:
-        a = np.asarray(x, dtype=float)
-    except (TypeError, ValueError, OverflowError):
-        raise MechanismError(f"{name}: expected numbers, got {type(x).__name__} "
-                             f"{str(x)[:60]}") from None
+    a = real_array(x, name, MechanismError)
     tail = tuple(tail)
     if tail and (a.ndim < len(tail) or a.shape[a.ndim - len(tail):] != tail):
         want = "x".join(map(str, tail))
@@ -63,20 +55,10 @@ def as_array(x, name: str, tail: tuple = (), finite: bool = True) -> np.ndarray:
     return a
 
 
-def as_number(x, name: str, finite: bool = True) -> float:
-    """``x`` as one float (a real scalar, not a bool or a string); raises MechanismError
-    naming ``name`` otherwise, or when it is not finite (``finite=True``)."""
-    if isinstance(x, np.ndarray) and x.ndim == 0:
-        x = x[()]
-    if isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real):
-        raise MechanismError(f"{name}: expected a number, got {str(x)[:60]}")
-    try:
-        v = float(x)
-    except (TypeError, ValueError, OverflowError):
-        raise MechanismError(f"{name}: expected a number, got {str(x)[:60]}") from None
-    if finite and not np.isfinite(v):
-        raise MechanismError(f"{name}: expected a finite number, got {v}")
-    return v
+def as_number(x, name: str) -> float:
+    """``x`` as one finite float (a real scalar, not a bool or a string); raises
+    MechanismError naming ``name`` otherwise."""
+    return real_number(x, name, MechanismError)
 
 
 def as_index(x, name: str) -> int:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from closure.checks import real_number
+from closure.checks import real_array, real_number
 
 from .errors import StiffnessError
 
@@ -59,21 +59,7 @@ def as_array(x, name: str, trailing: tuple = (), *, ndim: int | None = None,
         Naming ``name``, the expected shape and what was given.
     """
     expect = what or _shape_text(trailing, ndim) + " of numbers"
-    if isinstance(x, (str, bytes)) or x is None:
-        raise StiffnessError(f"{name}: expected {expect}, got {type(x).__name__} {x!r}")
-    try:
-        a = np.asarray(x)
-        if a.dtype.kind == "c":
-            raise StiffnessError(f"{name}: expected real numbers {expect}, got complex values")
-        if a.dtype.kind not in "biuf":
-            a = a.astype(float)
-        else:
-            a = a.astype(float, copy=False)
-    except StiffnessError:
-        raise
-    except (TypeError, ValueError):
-        raise StiffnessError(f"{name}: expected {expect}, got {type(x).__name__} that is not a "
-                             "numeric array") from None
+    a = real_array(x, name, StiffnessError, expect)
     k = len(trailing)
     ok = a.ndim >= k and all(d is None or a.shape[a.ndim - k + i] == d
                              for i, d in enumerate(trailing))

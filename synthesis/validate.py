@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from closure.checks import real_number
+from closure.checks import real_array, real_number
 
 from .errors import SynthesisError
 
@@ -38,18 +38,7 @@ def array(x, name: str, shape: tuple | None, *, what: str | None = None) -> np.n
         Naming ``name``, the expected shape and what was given.
     """
     expect = what or (f"shape {_shape_text(shape)}" if shape is not None else "an array")
-    if isinstance(x, (str, bytes)) or x is None:
-        raise SynthesisError(f"{name}: expected {expect}, got {type(x).__name__} {x!r}")
-    try:
-        a = np.asarray(x)
-        if a.dtype.kind == "c":
-            raise SynthesisError(f"{name}: expected real numbers, {expect}, got complex values")
-        a = a.astype(float, copy=a.dtype.kind not in "biuf")
-    except SynthesisError:
-        raise
-    except (TypeError, ValueError):
-        raise SynthesisError(f"{name}: expected {expect}, got {type(x).__name__} that is not a "
-                             "numeric array") from None
+    a = real_array(x, name, SynthesisError, expect)
     if shape is not None and (a.ndim != len(shape) or
                               any(d is not None and a.shape[i] != d for i, d in enumerate(shape))):
         raise SynthesisError(f"{name}: expected {expect}, got shape {a.shape}")
@@ -92,7 +81,7 @@ def transform(T, name: str = "T", *, batch: bool = False, tol: float = ROTATION_
     """A rigid transform ``(4, 4)`` (or a batch ``(n, 4, 4)`` when ``batch``): finite, last
     row ``(0, 0, 0, 1)`` and a proper rotation block, to ``tol``."""
     shape = (None, 4, 4) if batch else (4, 4)
-    T = array(T, name, shape, what=f"a finite 4x4 rigid transform"
+    T = array(T, name, shape, what="a finite 4x4 rigid transform"
               + (" batch (n, 4, 4)" if batch else " (4, 4)"))
     Tb = T.reshape(-1, 4, 4)
     row = np.abs(Tb[:, 3] - (0.0, 0.0, 0.0, 1.0)).max(-1)

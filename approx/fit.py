@@ -313,6 +313,17 @@ def _bracket_minimax(d2f, a, b, n, gamma, tol, rtol=1e-10):
     return x, hi
 
 
+def _knots(knots) -> np.ndarray:
+    """Checked knots: a strictly increasing 1-D array of at least two values."""
+    x = as_points(knots, "knots")
+    if x.ndim != 1 or x.size < 2:
+        raise ApproxError(f"knots: expected a 1-D array of at least two values, got shape "
+                          f"{x.shape}")
+    if np.any(np.diff(x) <= 0):
+        raise ApproxError("knots: must be strictly increasing")
+    return x
+
+
 def fit(f, df, d2f, a: float, b: float, *, delta: float | None = None,
         gamma: float | None = None, knots=None, n: int | None = None,
         extrapolate: bool = False) -> PiecewiseAnalog:
@@ -372,12 +383,7 @@ def fit(f, df, d2f, a: float, b: float, *, delta: float | None = None,
     # knots are placed to 1e-9 of the range (and never finer than a few ulps of x)
     tol = 8 * np.spacing(max(1.0, abs(a), abs(b))) + 1e-9 * (b - a)
     if knots is not None:
-        x = as_points(knots, "knots")
-        if x.ndim != 1 or x.size < 2:
-            raise ApproxError(f"knots: expected a 1-D array of at least two values, got shape "
-                              f"{x.shape}")
-        if np.any(np.diff(x) <= 0):
-            raise ApproxError("knots: must be strictly increasing")
+        x = _knots(knots)
         if abs(x[0] - a) > tol or abs(x[-1] - b) > tol:
             raise ApproxError(f"knots: must start at a={a} and end at b={b}, got "
                               f"[{x[0]}, {x[-1]}]")
@@ -437,12 +443,7 @@ def fit_least_squares(f, df, d2f, knots, *, end_conditions: bool = True,
     PiecewiseAnalog
         σ per interval of the least-squares broken line against f''.
     """
-    x = as_points(knots, "knots")
-    if x.ndim != 1 or x.size < 2:
-        raise ApproxError(f"knots: expected a 1-D array of at least two values, got shape "
-                          f"{x.shape}")
-    if np.any(np.diff(x) <= 0):
-        raise ApproxError("knots: must be strictly increasing")
+    x = _knots(knots)
     for name, v in (("end_conditions", end_conditions), ("extrapolate", extrapolate)):
         if not isinstance(v, (bool, np.bool_)):
             raise ApproxError(f"{name}: expected True or False, got {v!r}")

@@ -17,22 +17,22 @@ from .validate import as_array, broadcast, first_bad, number, points, rotation, 
 __all__ = ["Hexapod", "StiffnessResult"]
 
 
-@dataclass
+@dataclass(repr=False)
 class StiffnessResult:
-    """Stiffness of a hexapod at a pose.
+    """Stiffness of a hexapod at a pose or a batch of poses ``(...)``.
 
     Attributes
     ----------
-    K : numpy.ndarray, shape (6, 6)
+    K : numpy.ndarray, shape (..., 6, 6)
         Stiffness relating ``W = (f, m)`` to ``Δ = (δ, θ)`` (blocks N/m, N/rad, N·m/rad).
-    reference : numpy.ndarray, shape (3,)
+    reference : numpy.ndarray, shape (..., 3)
         The reference point (origin of the result's frame) in base coordinates (m).
-    R : numpy.ndarray, shape (3, 3)
+    R : numpy.ndarray, shape (..., 3, 3)
         Axes of the result's frame: ``r' = R (r − reference)``.
     loaded : bool
         False: the unloaded (congruence) stiffness P Kθ Pᵀ; True: with the geometric
         term of the leg forces (in general not symmetric).
-    cond_P : float
+    cond_P : float or numpy.ndarray, shape (...)
         Condition number of the dimensionless leg matrix (moments about the platform
         points' centroid divided by the platform radius; see :meth:`Hexapod.cond_P`).
     """
@@ -41,7 +41,19 @@ class StiffnessResult:
     reference: np.ndarray
     R: np.ndarray
     loaded: bool
-    cond_P: float
+    cond_P: float | np.ndarray
+
+    def __repr__(self) -> str:
+        kind = "loaded" if self.loaded else "unloaded"
+        batch = self.K.shape[:-2]
+        if batch:
+            c = np.asarray(self.cond_P)
+            return (f"StiffnessResult({kind}, {' × '.join(map(str, batch))} poses, "
+                    f"cond(P) {c.min():.3g} … {c.max():.3g})")
+        kt = np.linalg.eigvalsh(0.5 * (self.K[:3, :3] + self.K[:3, :3].T))
+        ref = ", ".join(f"{v:.4g}" for v in self.reference)
+        return (f"StiffnessResult({kind}, about ({ref}) m, translational stiffness "
+                f"{kt[0]:.4g} … {kt[-1]:.4g} N/m, cond(P) {float(self.cond_P):.4g})")
 
 
 class Hexapod:
@@ -262,7 +274,14 @@ class Hexapod:
         return R, p
 
     # ---------------------------------------------------------------- stiffness
-    def stiffness(self, pose, frame=None) -> StiffnessResult | np.ndarray:
+    def __repr__(self) -> str:
+        k = self.k
+        ks = f"{k[0]:.4g}" if np.all(k == k[0]) else f"{k.min():.4g} … {k.max():.4g}"
+        return (f"Hexapod({len(k)} legs, base radius "
+                f"{np.linalg.norm(self.base, axis=1).max():.4g} m, platform radius "
+                f"{np.linalg.norm(self.platform, axis=1).max():.4g} m, leg stiffness {ks} N/m)")
+
+    def stiffness(self, pose, frame=None) -> StiffnessResult:
         """Unloaded stiffness ``K = P diag(k) Pᵀ`` at ``pose``.
 
         Parameters
@@ -274,8 +293,10 @@ class Hexapod:
 
         Returns
         -------
-        StiffnessResult for one pose; for a batch, the array ``(..., 6, 6)``
-        (use :meth:`map` for tables).
+        StiffnessResult
+            For one pose or a batch (then ``K`` is ``(..., 6, 6)``, ``reference``
+            ``(..., 3)``, ``R`` ``(..., 3, 3)`` and ``cond_P`` ``(...)``); use
+            :meth:`map` for tables of indices.
         """
         T = self._pose(pose)
         P = self._P(T)
@@ -288,9 +309,10 @@ class Hexapod:
             # terms grow as |p|² k and would cancel far from the origin)
             P = wrench_transform(R, p) @ P
         K = _congruence(P, self.k)
-        if T.ndim > 2:
-            return K
-        return StiffnessResult(K, np.asarray(p, dtype=float), np.asarray(R), False, float(c))
+        batch = T.shape[:-2]
+        ref = np.broadcast_to(np.asarray(p, dtype=float), batch + (3,)).copy()
+        axes = np.broadcast_to(np.asarray(R, dtype=float), batch + (3, 3)).copy()
+        return StiffnessResult(K, ref, axes, False, c if batch else float(c))
 
     def _P(self, T) -> np.ndarray:
         """P ``(..., 6, n)`` of checked poses ``(..., 4, 4)``."""
@@ -392,25 +414,32 @@ class Hexapod:
             self._near_singular(c, "deflection")
         return (np.swapaxes(S, -1, -2) @ Dc)[..., 0]
 
-    def loaded_stiffness(self, pose, wrench) -> StiffnessResult:
+    def loaded_stiffness(self, pose, wrench, frame=None) -> StiffnessResult:
         """Stiffness under an external wrench ``W = (f, m)`` about the base origin.
 
         The legs balance the load with forces ``τ = P⁻¹ W`` (tension positive).
         K is the derivative of the wrench that holds the platform displaced by
         ``Δ``, taken about the reference point carried by the platform (the
-        platform point at the base origin in this pose).  Moving the platform
+        platform point at the frame's origin in this pose).  Moving the platform
         rotates the leg lines, which adds the geometric term of the
         conservative congruence transformation (Chen & Kao):
         ``K = P Kθ Pᵀ + Σ τ_i ∂N_i/∂Δ + [[0, 0], [[f], 0]]``.  It is symmetric
         exactly when the external moment about the reference point is zero.
-        Reference: base origin and axes.  Checked against finite differences of
-        the equilibrium in the tests.
+        Under load the result is not carried to another reference point by
+        ``T K Tᵀ`` (the load's moment arm turns with the platform), so it is
+        computed about the requested point directly: with ``frame="platform"`` it
+        depends on the mechanism alone, however far the base origin is.  Checked
+        against finite differences of the equilibrium in the tests.
 
         Parameters
         ----------
         pose : array_like, shape (4, 4)
         wrench : array_like, shape (6,)
             ``(f, m)`` (N, N·m) about the base origin.
+        frame : None, "platform" or (R, p)
+            The result's reference point and axes, as for :meth:`stiffness`: the
+            base origin and axes (None), the platform frame, or origin ``p`` (base
+            coordinates, m) with ``r' = R (r − p)``.
 
         Raises
         ------
@@ -422,12 +451,18 @@ class Hexapod:
             raise StiffnessError(f"pose: loaded_stiffness takes one pose (4, 4), got shape "
                                  f"{T.shape}")
         W = as_array(wrench, "wrench", (6,), ndim=1, what="a wrench (f, m) of shape (6,)")
-        P = self._P(T)
-        c = self._cond(P, T)
+        R, p = self._frame(frame, T)
+        if R.shape != (3, 3) or p.shape != (3,):
+            raise StiffnessError("frame: loaded_stiffness takes one frame (R (3, 3), p (3,)), "
+                                 f"got shapes {R.shape} and {p.shape}")
+        c = self._cond(self._P(T), T)
         self._regular(c, "the loaded stiffness is")
         tau = self.leg_forces(T, W)
         L, u = self.legs(T)
-        r = self.platform_points_world(T)
+        # platform points relative to the reference point, from the platform's own
+        # coordinates (no cancellation of a far base origin)
+        r = self.platform @ T[:3, :3].T + (T[:3, 3] - p)
+        P = np.concatenate([u.T, np.cross(r, u).T], 0)        # legs' lines about p
         K = _congruence(P, self.k)
         # dr = δ + θ × r = [I, −[r]] Δ ;  du = (I − u uᵀ) dr / L ;
         # dN = (du, [r] du − [u] dr), all legs at once: (n, 3, 6)
@@ -438,7 +473,9 @@ class Hexapod:
         G = np.einsum("i,ijk->jk", tau, dN)
         # held wrench about the carried reference point: m' = m − δ × f adds [f] δ
         G[3:, :3] += skew(W[:3])
-        return StiffnessResult(K + G, np.zeros(3), np.eye(3), True, float(c))
+        H = np.kron(np.eye(2), R)                             # base axes → the frame's axes
+        return StiffnessResult(H @ (K + G) @ H.T, np.asarray(p, dtype=float), np.asarray(R),
+                               True, float(c))
 
     # ---------------------------------------------------------------- maps
     def map(self, positions, rotations=None, frame: str | None = "platform") -> pd.DataFrame:

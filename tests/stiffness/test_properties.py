@@ -344,13 +344,17 @@ def test_tiny_hexapod_is_accepted():
 def test_batch_equals_one_by_one(Ts):
     T = np.array(Ts)
     Ws = W0 * np.arange(1, len(Ts) + 1)[:, None]
-    Kb = HX.stiffness(T)
-    Kpb = HX.stiffness(T, frame="platform")
+    Kb = HX.stiffness(T).K
+    rp = HX.stiffness(T, frame="platform")
+    Kpb = rp.K
+    assert rp.reference.shape == (len(Ts), 3) and rp.cond_P.shape == (len(Ts),)
     Cb, taub, db = HX.compliance(T), HX.leg_forces(T, Ws), HX.deflection(T, Ws)
     Kbatch, cb = HX.stiffness_batch(T, "platform")
     for i, Ti in enumerate(Ts):
         assert rel(Kb[i], HX.stiffness(Ti).K) < 1e-14
-        assert rel(Kpb[i], HX.stiffness(Ti, frame="platform").K) < 1e-13
+        one = HX.stiffness(Ti, frame="platform")
+        assert rel(Kpb[i], one.K) < 1e-13 and abs(rp.cond_P[i] - one.cond_P) < 1e-9 * one.cond_P
+        assert np.array_equal(rp.reference[i], one.reference) and np.array_equal(rp.R[i], one.R)
         assert rel(Kbatch[i], Kpb[i]) < 1e-13 and abs(cb[i] - HX.cond_P(Ti)) < 1e-9 * cb[i]
         assert rel(Cb[i], HX.compliance(Ti)) < 1e-13
         assert rel(taub[i], HX.leg_forces(Ti, Ws[i])) < 1e-13

@@ -295,3 +295,75 @@ def test_blocked_batch_equals_unblocked():
     hx._BLOCK = 3                                      # force 4 blocks
     K2, c2 = hx.stiffness_batch(T, "platform")
     assert np.array_equal(K1, K2) and np.array_equal(c1, c2)
+
+
+def _held_wrench_fd(hx, T0, W0, R, p, h=1e-6):
+    """Loaded stiffness by central differences of the equilibrium: the platform is displaced
+    by Δ = (δ, θ) (frame axes) about the platform point at ``p``; the legs keep their forces
+    plus k ΔL; the held wrench is taken about the displaced point, in the frame's axes."""
+    tau0 = hx.leg_forces(T0, W0)
+    L0, _ = hx.legs(T0)
+
+    def held(D):
+        d, th = R.T @ D[:3], R.T @ D[3:]                      # into base axes
+        Q = exp_so3(th)
+        T = T0.copy()
+        T[:3, :3] = Q @ T0[:3, :3]
+        T[:3, 3] = Q @ (T0[:3, 3] - p) + p + d
+        L, _ = hx.legs(T)
+        W = hx.leg_matrix(T) @ (tau0 + hx.k * (L - L0))       # about the base origin
+        f, m = W[:3], W[3:] - np.cross(p + d, W[:3])          # about the carried point
+        return np.r_[R @ f, R @ m]
+
+    return np.stack([(held(np.eye(6)[i] * h) - held(-np.eye(6)[i] * h)) / (2 * h)
+                     for i in range(6)], 1)
+
+
+@pytest.mark.parametrize("which", ["platform", "general"])
+def test_loaded_stiffness_in_a_frame_against_fd(which):
+    hx = general_hexapod()
+    T0 = pose([0.05, -0.1, 0.15], [0.02, 0.01, 0.7])
+    W0 = np.r_[300.0, -200, -5000, 400, 250, -100]
+    if which == "platform":
+        frame, R, p = "platform", T0[:3, :3].T, T0[:3, 3]
+    else:
+        R, p = rand_frame()
+        frame = (R, p)
+    res = hx.loaded_stiffness(T0, W0, frame=frame)
+    Kfd = _held_wrench_fd(hx, T0, W0, R, p)
+    assert np.abs(Kfd - res.K).max() / np.abs(res.K).max() < 1e-7
+    assert np.allclose(res.reference, p) and np.allclose(res.R, R)
+    # unloaded: the congruence result in the same frame
+    assert np.allclose(hx.loaded_stiffness(T0, np.zeros(6), frame=frame).K,
+                       hx.stiffness(T0, frame=frame).K, rtol=1e-12, atol=1e-12 * np.abs(res.K).max())
+
+
+@pytest.mark.parametrize("far", [1e3, 1e5])
+def test_loaded_stiffness_about_the_platform_is_origin_free(far):
+    """The same loaded hexapod with the whole model moved far from the base origin: about the
+    platform frame the loaded stiffness agrees to 1e-9 relative (about the far base origin its
+    moment blocks would carry |origin|² k and lose every digit)."""
+    hx = general_hexapod(k=np.full(6, 1e7))
+    T0 = pose([0.05, -0.1, 0.15], [0.02, 0.01, 0.7])
+    W0 = np.r_[300.0, -200, -5000, 400, 250, -100]            # about the base origin
+    K0 = hx.loaded_stiffness(T0, W0, frame="platform").K
+    Q, s = exp_so3(np.array([0.3, -1.1, 0.7])), far * np.array([0.6, -0.8, 0.3])
+    moved = Hexapod(hx.base @ Q.T + s, hx.platform, hx.k)
+    T1 = T0.copy()
+    T1[:3, :3] = Q @ T0[:3, :3]
+    T1[:3, 3] = Q @ T0[:3, 3] + s
+    W1 = np.r_[Q @ W0[:3], Q @ W0[3:] + np.cross(s, Q @ W0[:3])]   # the same load, new origin
+    K1 = moved.loaded_stiffness(T1, W1, frame="platform").K
+    assert np.abs(K1 - K0).max() / np.abs(K0).max() < 1e-9
+
+
+def test_reprs_are_short_and_carry_units():
+    hx = general_hexapod(k=np.full(6, 1e7))
+    assert repr(hx) == ("Hexapod(6 legs, base radius 0.8 m, platform radius 0.4 m, "
+                        "leg stiffness 1e+07 N/m)")
+    T0 = pose([0, 0, 0], [0, 0, 0.7])
+    one = hx.stiffness(T0)
+    kt = np.linalg.eigvalsh(one.K[:3, :3])
+    assert f"{kt[0]:.4g} … {kt[-1]:.4g} N/m" in repr(one) and "\n" not in repr(one)
+    batch = hx.stiffness(np.stack([T0] * 73))
+    assert "73 poses" in repr(batch) and len(repr(batch)) < 100

@@ -1,0 +1,310 @@
+"""Stiffness of a link of any mechanism the closure engine models.
+
+The mechanism's joint coordinates ``q`` (velocity coordinates of the engine, ``nv`` of
+them) move the links; at a solved pose the loops allow the small motions ``dq`` with
+``J dq = 0`` (J the loop-closure Jacobian) and the chosen link (the "platform") moves
+by the small displacement ``Δ = A dq`` (A its twist columns).  Each coordinate is
+
+* **elastic**: a spring on the coordinate (N/m for a slide, N·m/rad for a rotation),
+  or a symmetric matrix on the coordinates of one joint;
+* **locked**: held rigidly (``dq = 0``), by default the mechanism's inputs (actuated
+  joints) that are not given a spring;
+* **passive**: free (every other coordinate), eliminated through the loop constraints.
+
+With ``Z`` a basis of the allowed motions (null space of J over the free and elastic
+coordinates) the elastic energy is ``½ yᵀ H y`` with ``H = Zᵀ Kq Z`` for ``dq = Z y``
+and the platform moves by ``Δ = M y`` with ``M = A Z``.  The compliance is
+``C = M H⁻¹ Mᵀ`` over the motions that store energy, and ``K`` its inverse over the
+platform's compliant directions.  For a hexapod with elastic legs this is
+``K = P Kθ Pᵀ``; for a serial arm with elastic joints ``K = J⁻ᵀ Kθ J⁻¹``.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .errors import SingularPoseError, StiffnessError
+from .sixvector import twist_transform
+from .validate import as_array, rotation, vec3
+
+__all__ = ["MechanismStiffness", "of_mechanism"]
+
+#: singular values of the dimensionless loop Jacobian below this fraction of the
+#: largest count as zero (the engine's own rank rule)
+RANK_RTOL = 1e-8
+#: energy eigenvalues below this fraction of the largest are motions that deform no spring
+ENERGY_RTOL = 1e-12
+#: a zero-energy motion moving the platform by more than this (dimensionless) is free
+FREE_MOTION_TOL = 1e-8
+
+
+@dataclass(repr=False)
+class MechanismStiffness:
+    """Cartesian stiffness of a mechanism's link at a batch of solved poses ``(B,)``.
+
+    Attributes
+    ----------
+    K : numpy.ndarray, shape (B, 6, 6)
+        Stiffness relating ``W = (f, m)`` (N, N·m) to ``Δ = (δ, θ)`` (m, rad) about the
+        reference point, over the link's compliant directions (blocks N/m, N/rad,
+        N·m/rad).  Where the mechanism holds the link rigidly (``rigid > 0``), K is the
+        pseudo-inverse of ``C``: finite on the compliant directions, zero on the others,
+        which are infinitely stiff.
+    C : numpy.ndarray, shape (B, 6, 6)
+        Compliance ``Δ = C W`` (blocks m/N, m/(N·m), rad/N, rad/(N·m)).
+    rigid : numpy.ndarray of int, shape (B,)
+        Number of directions in which the mechanism holds the link rigidly (no spring
+        deforms when it moves that way): 0 for a link that is elastic in every
+        direction, 3 for a planar mechanism seen in space.
+    reference : numpy.ndarray, shape (B, 3)
+        The reference point (origin of the result's frame), world coordinates (m).
+    R : numpy.ndarray, shape (B, 3, 3)
+        Axes of the result's frame: ``r' = R (r − reference)``.
+    condition : numpy.ndarray, shape (B,)
+        Condition number of the dimensionless loop Jacobian over the free and elastic
+        coordinates (1 for an open chain): large near a singular pose.
+    elastic, locked, passive : list of str
+        Labels of the coordinates in each role.
+    """
+
+    K: np.ndarray
+    C: np.ndarray
+    rigid: np.ndarray
+    reference: np.ndarray
+    R: np.ndarray
+    condition: np.ndarray
+    elastic: list
+    locked: list
+    passive: list
+
+    def __repr__(self) -> str:
+        B = self.K.shape[0]
+        kt = np.linalg.eigvalsh(0.5 * (self.K[:, :3, :3] + np.swapaxes(self.K[:, :3, :3], 1, 2)))
+        pos = kt[kt > 0]
+        span = f"{pos.min():.4g} … {pos.max():.4g} N/m" if pos.size else "none"
+        return (f"MechanismStiffness({B} pose{'s' if B != 1 else ''}, translational stiffness "
+                f"{span}, rigid directions {int(self.rigid.min())}…{int(self.rigid.max())}, "
+                f"{len(self.elastic)} elastic / {len(self.locked)} locked / {len(self.passive)} "
+                "passive coordinates)")
+
+
+def _roles(mech, springs, locked):
+    """(Kq (nv, nv), elastic, locked, passive index arrays) from the user's spring map."""
+    labels = mech.velocity_labels()
+    t = mech.tree
+    cols_of = {}
+    for j in mech.joints:
+        cols = list(range(t.v_offset[j.index], t.v_offset[j.index] + j.nv))
+        cols_of[j.name] = cols
+        if j.nv > 1:
+            for c in cols:
+                cols_of[labels[c]] = [c]
+    if not isinstance(springs, dict) or not springs:
+        raise StiffnessError("springs: expected a non-empty dict {joint or 'joint.coordinate': "
+                             f"stiffness}}, got {type(springs).__name__}")
+    Kq = np.zeros((t.nv, t.nv))
+    elastic: list[int] = []
+    for key, value in springs.items():
+        if key not in cols_of:
+            raise StiffnessError(f"springs: no joint or coordinate named {key!r}; expected one "
+                                 f"of {', '.join(sorted(cols_of))}")
+        cols = cols_of[key]
+        if set(cols) & set(elastic):
+            raise StiffnessError(f"springs: {key!r} given a spring twice")
+        k = as_array(value, f"springs[{key!r}]",
+                     what=f"a stiffness (N/m or N·m/rad), {len(cols)} of them or a "
+                          f"{len(cols)}x{len(cols)} matrix")
+        n = len(cols)
+        if k.shape in ((), (1,), (n,)):
+            k = np.diag(np.broadcast_to(k, (n,)).astype(float))
+        elif k.shape != (n, n):
+            raise StiffnessError(f"springs[{key!r}]: expected a stiffness, {n} of them or a "
+                                 f"{n}x{n} matrix, got shape {k.shape}")
+        if not np.allclose(k, k.T, rtol=1e-12, atol=0) or np.linalg.eigvalsh(k).min() <= 0:
+            raise StiffnessError(f"springs[{key!r}]: expected positive stiffness (a symmetric "
+                                 "positive definite matrix)")
+        Kq[np.ix_(cols, cols)] = 0.5 * (k + k.T)
+        elastic += cols
+    if locked is None:
+        lock = [c for c in mech.input_columns() if c not in elastic]
+    else:
+        if isinstance(locked, str):
+            locked = [locked]
+        lock = []
+        for key in locked:
+            if key not in cols_of:
+                raise StiffnessError(f"locked: no joint or coordinate named {key!r}; expected "
+                                     f"one of {', '.join(sorted(cols_of))}")
+            if set(cols_of[key]) & set(elastic):
+                raise StiffnessError(f"locked: {key!r} also has a spring")
+            lock += cols_of[key]
+    elastic_a, lock_a = np.array(sorted(elastic), int), np.array(sorted(set(lock)), int)
+    passive = np.setdiff1d(np.arange(t.nv), np.r_[elastic_a, lock_a])
+    return Kq, elastic_a, lock_a, passive
+
+
+def _frame(frame, link_T):
+    """(R (B, 3, 3), p (B, 3)) of the result's frame."""
+    B = link_T.shape[0]
+    if frame is None:
+        return np.broadcast_to(np.eye(3), (B, 3, 3)), np.zeros((B, 3))
+    if isinstance(frame, str):
+        if frame != "platform":
+            raise StiffnessError(f"frame: expected None, 'platform' or (R, p), got {frame!r}")
+        return np.swapaxes(link_T[:, :3, :3], 1, 2), link_T[:, :3, 3]
+    try:
+        R, p = frame
+    except (TypeError, ValueError):
+        raise StiffnessError("frame: expected None, 'platform' or (R, p) with R a 3x3 rotation "
+                             f"and p a 3-vector (m), got {type(frame).__name__}") from None
+    R, p = rotation(R, "frame R"), vec3(p, "frame p")
+    if R.shape != (3, 3) or p.shape != (3,):
+        raise StiffnessError(f"frame: expected one frame (R (3, 3), p (3,)), got shapes "
+                             f"{R.shape} and {p.shape}")
+    return np.broadcast_to(R, (B, 3, 3)), np.broadcast_to(p, (B, 3))
+
+
+def _by_rank(values, fn):
+    """Apply ``fn(index_array, rank)`` to each group of poses sharing a rank (a handful of
+    groups: the rank changes only at singular poses)."""
+    for r in np.unique(values):
+        fn(np.flatnonzero(values == r), int(r))
+
+
+def of_mechanism(mechanism, pose, *, platform: str, springs: dict, locked=None,
+                 frame=None) -> MechanismStiffness:
+    """Cartesian stiffness of the link ``platform`` of a mechanism at solved poses.
+
+    Parameters
+    ----------
+    mechanism : closure.Mechanism
+    pose : closure.Pose
+        Poses of ``mechanism`` (from :meth:`Mechanism.solve` or ``sweep``), one or a batch.
+    platform : str
+        The link whose stiffness is wanted (the moving platform, the tool).
+    springs : dict
+        ``{joint: stiffness}`` or ``{"joint.coordinate": stiffness}`` (labels as
+        :meth:`Mechanism.velocity_labels`): N/m for slides (P, C's ``s``), N·m/rad for
+        rotations (R, C's ``theta``, H, U, S; S coordinates are rotations about the
+        joint's *a*-frame axes ``wx, wy, wz``).  A joint's value may be one number for
+        each of its coordinates, one per coordinate, or a symmetric positive definite
+        matrix over them.
+    locked : iterable of str, optional
+        Joints or coordinates held rigidly.  Default: the mechanism's inputs that have
+        no spring (actuators locked).  Every other coordinate without a spring is passive.
+    frame : None, "platform" or (R, p)
+        The result's reference point and axes: the world origin and axes (None), the
+        platform link's frame, or origin ``p`` (world coordinates, m) with
+        ``r' = R (r − p)``.
+
+    Returns
+    -------
+    MechanismStiffness
+        K, C, rigid directions, frame and condition for every pose.
+
+    Raises
+    ------
+    StiffnessError
+        Bad arguments (naming them).
+    SingularPoseError
+        A pose where the platform can move without deforming any spring (a free motion
+        of the mechanism: lock or spring more joints), or a pose that is not solved.
+
+    Notes
+    -----
+    Computed from the engine's own loop Jacobian in its dimensionless form (twists about
+    the mechanism's centre, lengths divided by its size), so the result does not depend
+    on where the world origin is.  One SVD and one symmetric eigenproblem per pose,
+    batched; poses are grouped only where the Jacobian's rank differs (singular poses).
+    """
+    from closure import Mechanism, Pose
+    if not isinstance(mechanism, Mechanism):
+        raise StiffnessError(f"mechanism: expected a closure.Mechanism, got "
+                             f"{type(mechanism).__name__}")
+    if not isinstance(pose, Pose) or pose.mechanism is not mechanism:
+        raise StiffnessError("pose: expected a closure.Pose of this mechanism (from "
+                             f"mechanism.solve), got {type(pose).__name__}")
+    if not isinstance(platform, str) or platform not in mechanism.links or \
+            platform == mechanism.links[0]:
+        raise StiffnessError(f"platform: expected the name of a moving link ("
+                             f"{', '.join(mechanism.links[1:])}), got {platform!r}")
+    bad = np.flatnonzero(np.atleast_1d(pose.status) >= 2)
+    if bad.size:
+        raise SingularPoseError(f"pose: pose index {int(bad[0])} is not solved (status "
+                                f"{int(np.atleast_1d(pose.status)[bad[0]])}); its stiffness is "
+                                "undefined")
+    Kq, elastic, lock, passive = _roles(mechanism, springs, locked)
+    t = mechanism.tree
+    ks = pose.kinematics()
+    S = ks["S"]                                           # (B, nv, 6) world twists
+    B = S.shape[0]
+    L = t.scale
+    col = np.ones(t.nv)
+    col[t.length_cols] = L                                # dq = col · dq_s, dq_s dimensionless
+    free = np.r_[elastic, passive].astype(int)
+    free.sort()
+    colf = col[free]
+    Kq_s = Kq[np.ix_(free, free)] * colf[:, None] * colf  # energy per dimensionless motion
+    A = (t.path_sign[t.link_index[platform]][free, None] * S[:, free]).transpose(0, 2, 1)
+    A = A * colf                                          # (B, 6, nf): Δ about the world origin
+    link_T = ks["link"][:, t.link_index[platform]]
+    R, p = _frame(frame, link_T)
+    A = twist_transform(R, p) @ A                         # Δ about p, in the frame's axes
+    nf = free.size
+    if t.chords:
+        J = mechanism._scaled_jacobian(ks)[:, :, free]
+        _, s, Vt = np.linalg.svd(J, full_matrices=True)
+        rank = np.sum(s > RANK_RTOL * np.maximum(s[:, :1], 1e-300), axis=1)
+    else:
+        Vt = np.broadcast_to(np.eye(nf), (B, nf, nf))
+        s = np.ones((B, 1))
+        rank = np.zeros(B, int)
+    cond = np.ones(B)
+    C = np.zeros((B, 6, 6))
+    K = np.zeros((B, 6, 6))
+    rigid = np.zeros(B, int)
+    unit = np.r_[np.full(3, 1 / L), np.ones(3)]           # Δ made dimensionless
+
+    def group(idx, r):
+        if r:
+            cond[idx] = s[idx, 0] / s[idx, r - 1]
+        Z = np.swapaxes(Vt[idx, r:], 1, 2)                # (b, nf, m) allowed motions
+        H = np.swapaxes(Z, 1, 2) @ Kq_s @ Z
+        lam, V = np.linalg.eigh(H)
+        M = A[idx] @ Z @ V                                # platform motion of each mode
+        Ms = M * unit[:, None]
+        stored = lam > ENERGY_RTOL * np.maximum(lam[:, -1:], 1e-300)
+        moves = np.linalg.norm(Ms, axis=1) > FREE_MOTION_TOL
+        loose = moves & ~stored
+        if loose.any():
+            b = int(np.flatnonzero(loose.any(1))[0])
+            raise SingularPoseError(
+                f"pose: at pose index {int(idx[b])} the platform {platform!r} can move without "
+                f"deforming any spring (a free motion of the mechanism, loop condition "
+                f"{cond[idx[b]]:.3g}): give springs to more joints or lock them "
+                f"(passive coordinates: {', '.join(_labels(mechanism, passive)) or 'none'})")
+        inv = np.where(stored, 1 / np.where(stored, lam, 1), 0.0)
+        C[idx] = np.einsum("bik,bk,bjk->bij", M, inv, M)
+        # compliant directions: the range of the energy-storing modes' platform motions
+        Ms_st = Ms * stored[:, None, :]
+        U, sv, _ = np.linalg.svd(Ms_st, full_matrices=True)
+        n_c = np.sum(sv > RANK_RTOL * np.maximum(sv[:, :1], 1e-300), axis=1)
+        rigid[idx] = 6 - n_c
+        for nc in np.unique(n_c):                          # a handful of groups
+            g = np.flatnonzero(n_c == nc)
+            # K = D pinv(D C D) D with D = diag(unit): the pseudo-inverse taken on
+            # dimensionless displacements, over the compliant directions only
+            Qi = U[g, :, :nc] * unit[:, None]
+            Cq = np.swapaxes(Qi, 1, 2) @ C[idx[g]] @ Qi
+            K[idx[g]] = Qi @ np.linalg.inv(Cq) @ np.swapaxes(Qi, 1, 2)
+
+    _by_rank(rank, group)
+    return MechanismStiffness(K, C, rigid, np.array(p, dtype=float), np.array(R, dtype=float),
+                              cond, _labels(mechanism, elastic), _labels(mechanism, lock),
+                              _labels(mechanism, passive))
+
+
+def _labels(mech, cols) -> list:
+    labels = mech.velocity_labels()
+    return [labels[int(c)] for c in cols]

@@ -1,0 +1,258 @@
+"""Stiffness of mechanisms built in the closure engine, against independent references."""
+import numpy as np
+import pytest
+
+from closure import Mechanism, exp_so3
+from stiffness import Hexapod, SingularPoseError, StiffnessError, of_mechanism
+
+rng = np.random.default_rng(17)
+
+
+def frame(z, x, o):
+    """A 4x4 frame with Z along z, X along x's part normal to z, origin o."""
+    z = np.asarray(z, float) / np.linalg.norm(z)
+    x = np.asarray(x, float) - z * (np.asarray(x, float) @ z)
+    x /= np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = x, np.cross(z, x), z, o
+    return T
+
+
+def moved(T, Q, s):
+    """A frame after the rigid motion r → Q r + s."""
+    out = T.copy()
+    out[:3, :3] = Q @ T[:3, :3]
+    out[:3, 3] = Q @ T[:3, 3] + s
+    return out
+
+
+def ups(base, plat, T0, Q=np.eye(3), s=np.zeros(3)):
+    """A 6-UPS platform drawn at platform pose T0 (optionally the whole model moved by Q, s)."""
+    n = len(base)
+    m = Mechanism([f"l{i}" for i in range(n)] + [f"u{i}" for i in range(n)] + ["platform"])
+    w = plat @ T0[:3, :3].T + T0[:3, 3]
+    for i in range(n):
+        u = w[i] - base[i]
+        e = np.eye(3)[np.argmin(abs(u))]
+        pin = np.cross(u, e)
+        m.add_joint(f"U{i}", "U", "ground", f"l{i}",
+                    at=moved(frame(pin, np.cross(u, pin), base[i]), Q, s))
+        m.add_joint(f"P{i}", "P", f"l{i}", f"u{i}", at=moved(frame(u, e, base[i]), Q, s))
+        m.add_joint(f"S{i}", "S", f"u{i}", "platform", at=moved(frame([0, 0, 1], [1, 0, 0], w[i]), Q, s))
+        m.add_input(f"P{i}")
+    return m
+
+
+A_ = np.radians([0, 100, 120, 220, 240, 340])
+B_ = np.radians([40, 80, 160, 200, 280, 320])
+BASE = np.c_[0.8 * np.cos(A_), 0.8 * np.sin(A_), np.zeros(6)]
+PLAT = np.c_[0.4 * np.cos(B_), 0.4 * np.sin(B_), np.zeros(6)]
+KLEG = np.array([1e7, 2e7, 1.5e7, 0.8e7, 1.2e7, 3e7])
+T0 = np.eye(4)
+T0[:3, :3] = exp_so3(np.r_[0.05, -0.1, 0.15])
+T0[:3, 3] = [0.02, 0.01, 0.7]
+SPRINGS = {f"P{i}": KLEG[i] for i in range(6)}
+
+
+def rel(A, B):
+    return np.abs(A - B).max() / np.abs(B).max()
+
+
+def test_6ups_equals_hexapod_P_Ktheta_Pt_at_random_poses():
+    hx = Hexapod(BASE, PLAT, KLEG)
+    m = ups(BASE, PLAT, T0)
+    pose = m.solve(rng.normal(size=(20, 6)) * 0.02)
+    assert pose.ok.all()
+    Ts = pose.link_frame("platform") @ T0                 # the hexapod's platform poses
+    res = of_mechanism(m, pose, platform="platform", springs=SPRINGS)
+    assert (res.rigid == 0).all() and res.elastic == [f"P{i}" for i in range(6)]
+    assert len(res.passive) == 30 and res.locked == []
+    for i in range(20):
+        assert rel(res.K[i], hx.stiffness(Ts[i]).K) < 1e-10
+        assert rel(res.C[i], hx.compliance(Ts[i])) < 1e-10
+    # in the hexapod's platform frame
+    R, p = T0[:3, :3].T, T0[:3, 3]
+    one = of_mechanism(m, m.solve(np.zeros(6)), platform="platform", springs=SPRINGS,
+                       frame=(R, p))
+    assert rel(one.K[0], hx.stiffness(T0, frame="platform").K) < 1e-10
+
+
+@pytest.mark.parametrize("far", [1e3, 1e4])
+def test_origin_free_far_from_the_world_origin(far):
+    """The whole model moved far away: the stiffness in a frame carried along is unchanged."""
+    Q, s = exp_so3(np.r_[0.4, -0.9, 1.3]), far * np.r_[0.36, -0.48, 0.8]
+    m0, m1 = ups(BASE, PLAT, T0), ups(BASE, PLAT, T0, Q, s)
+    x = rng.normal(size=(5, 6)) * 0.02
+    R, p = T0[:3, :3].T, T0[:3, 3]
+    r0 = of_mechanism(m0, m0.solve(x), platform="platform", springs=SPRINGS, frame=(R, p))
+    r1 = of_mechanism(m1, m1.solve(x), platform="platform", springs=SPRINGS,
+                      frame=(R @ Q.T, Q @ p + s))
+    assert rel(r1.K, r0.K) < 1e-9
+    assert np.allclose(r1.condition, r0.condition, rtol=1e-6)
+
+
+def test_locked_actuator_and_free_motion():
+    m = ups(BASE, PLAT, T0)
+    pose = m.solve(np.zeros(6))
+    five = {f"P{i}": KLEG[i] for i in range(5)}
+    res = of_mechanism(m, pose, platform="platform", springs=five)   # P5 locked by default
+    assert res.locked == ["P5"] and res.rigid[0] == 1
+    P = Hexapod(BASE, PLAT, KLEG).leg_matrix(T0)
+    Pi = np.linalg.inv(P)
+    C = Pi.T @ np.diag(np.r_[1 / KLEG[:5], 0]) @ Pi                   # leg 6 rigid
+    assert rel(res.C[0], C) < 1e-10
+    assert np.allclose(res.K[0] @ res.C[0] @ res.K[0], res.K[0], rtol=0,
+                       atol=1e-9 * np.abs(res.K[0]).max())
+    with pytest.raises(SingularPoseError, match="move without deforming any spring"):
+        of_mechanism(m, pose, platform="platform", springs=five, locked=[])
+
+
+def test_serial_6r_arm_is_J_inv_T_Ktheta_J_inv():
+    names = [f"l{i}" for i in range(1, 7)]
+    m = Mechanism(names)
+    ats = []
+    links = ["ground"] + names
+    for i in range(6):
+        at = frame(rng.normal(size=3), rng.normal(size=3), rng.normal(size=3))
+        ats.append(at)
+        m.add_joint(f"R{i}", "R", links[i], links[i + 1], at=at)
+        m.add_input(f"R{i}")
+    kt = rng.uniform(1e4, 1e5, 6)
+    pose = m.solve(rng.normal(size=6))
+    res = of_mechanism(m, pose, platform="l6", springs={f"R{i}": kt[i] for i in range(6)})
+    # the arm's Jacobian from the world joint axes: column (p × ω, ω) about the world origin
+    J = np.empty((6, 6))
+    for i in range(6):
+        F = pose.link_frame(links[i]) @ ats[i]
+        w, p = F[:3, 2], F[:3, 3]
+        J[:, i] = np.r_[np.cross(p, w), w]
+    Ji = np.linalg.inv(J)
+    assert rel(res.K[0], Ji.T @ np.diag(kt) @ Ji) < 1e-10
+
+
+def test_planar_3rpr_closed_form():
+    """A planar 3-RPR with elastic legs: K on (x, y, θz) is Σ k pᵢ pᵢᵀ with pᵢ = (uᵢ, (rᵢ × uᵢ)_z);
+    the other three directions are rigid."""
+    base = np.array([[0, 0, 0], [2.0, 0, 0], [0.8, 1.9, 0]])
+    plat = np.array([[0.7, 0.6, 0], [1.3, 0.5, 0], [1.0, 1.1, 0]])
+    k = np.array([2e6, 3e6, 5e6])
+    m = Mechanism([f"l{i}" for i in range(3)] + [f"u{i}" for i in range(3)] + ["platform"])
+    for i in range(3):
+        u = plat[i] - base[i]
+        m.add_joint(f"A{i}", "R", "ground", f"l{i}", at=frame([0, 0, 1], u, base[i]))
+        m.add_joint(f"P{i}", "P", f"l{i}", f"u{i}", at=frame(u, [0, 0, 1], base[i]))
+        m.add_joint(f"C{i}", "R", f"u{i}", "platform", at=frame([0, 0, 1], u, plat[i]))
+        m.add_input(f"P{i}")
+    pose = m.solve(np.array([[0.0, 0, 0], [0.05, -0.03, 0.02]]))
+    res = of_mechanism(m, pose, platform="platform", springs={f"P{i}": k[i] for i in range(3)})
+    assert (res.rigid == 3).all()
+    for b in range(2):
+        Tp = pose.link_frame("platform")[b]
+        r = plat @ Tp[:3, :3].T + Tp[:3, 3]
+        u = r - base
+        u /= np.linalg.norm(u, axis=1)[:, None]
+        P = np.c_[u[:, 0], u[:, 1], u[:, 0] * r[:, 1] * 0 + np.cross(r, u)[:, 2]].T
+        Kp = P @ np.diag(k) @ P.T
+        sel = [0, 1, 5]
+        assert rel(res.K[b][np.ix_(sel, sel)], Kp) < 1e-10
+        others = np.ones((6, 6), bool)
+        others[np.ix_(sel, sel)] = False
+        assert np.abs(res.K[b][others]).max() < 1e-10 * np.abs(Kp).max()
+
+
+def test_bad_arguments_are_named():
+    m = ups(BASE, PLAT, T0)
+    pose = m.solve(np.zeros(6))
+    with pytest.raises(StiffnessError, match="springs: no joint or coordinate named 'Q1'"):
+        of_mechanism(m, pose, platform="platform", springs={"Q1": 1e6})
+    with pytest.raises(StiffnessError, match=r"springs\['P0'\]: expected positive"):
+        of_mechanism(m, pose, platform="platform", springs={"P0": -1.0})
+    with pytest.raises(StiffnessError, match=r"springs\['P0'\]"):
+        of_mechanism(m, pose, platform="platform", springs={"P0": float("nan")})
+    with pytest.raises(StiffnessError, match="platform: expected the name of a moving link"):
+        of_mechanism(m, pose, platform="ground", springs=SPRINGS)
+    with pytest.raises(StiffnessError, match="pose: expected a closure.Pose"):
+        of_mechanism(m, "pose", platform="platform", springs=SPRINGS)
+    with pytest.raises(StiffnessError, match="locked: 'P0' also has a spring"):
+        of_mechanism(m, pose, platform="platform", springs=SPRINGS, locked=["P0"])
+    with pytest.raises(StiffnessError, match="frame: expected None"):
+        of_mechanism(m, pose, platform="platform", springs=SPRINGS, frame="tool")
+
+
+def _three_legged(kind):
+    """A 3-RPS (R at the base tangent to its circle, P along the leg, S at the platform) or a
+    3-PRS (vertical actuated P, R tangent, a rigid leg, S), drawn symmetric at height 1."""
+    ang = np.radians([90, 210, 330])
+    radial = np.c_[np.cos(ang), np.sin(ang), np.zeros(3)]
+    tangent = np.c_[-np.sin(ang), np.cos(ang), np.zeros(3)]
+    base, plat = 1.0 * radial, 0.5 * radial + [0, 0, 1.0]
+    m = Mechanism([f"a{i}" for i in range(3)] + [f"b{i}" for i in range(3)] + ["platform"])
+    for i in range(3):
+        if kind == "RPS":
+            leg = plat[i] - base[i]
+            m.add_joint(f"R{i}", "R", "ground", f"a{i}", at=frame(tangent[i], leg, base[i]))
+            m.add_joint(f"P{i}", "P", f"a{i}", f"b{i}", at=frame(leg, tangent[i], base[i]))
+        else:                                     # slider at height 0.3 under the leg's R
+            knee = base[i] + [0, 0, 0.3]
+            m.add_joint(f"P{i}", "P", "ground", f"a{i}", at=frame([0, 0, 1], radial[i], base[i]))
+            m.add_joint(f"R{i}", "R", f"a{i}", f"b{i}", at=frame(tangent[i], radial[i], knee))
+        m.add_joint(f"S{i}", "S", f"b{i}", "platform", at=frame([0, 0, 1], [1, 0, 0], plat[i]))
+        m.add_input(f"P{i}")
+    return m
+
+
+@pytest.mark.parametrize("kind, all_joints", [("RPS", True), ("RPS", False), ("PRS", False)])
+def test_three_legged_against_fd_hessian_of_the_elastic_energy(kind, all_joints):
+    """K of a 3-RPS / 3-PRS against an independent reference built from the engine's solve
+    only: the platform's motion and every joint's deflection as functions of the three inputs
+    s (central differences of solved poses), the elastic energy's Hessian in s by second
+    differences of U(s), and C = A H⁻¹ Aᵀ.  Three directions are rigid (the legs' joints
+    allow only the 3-DOF motion)."""
+    from closure import log_se3, log_so3
+    m = _three_legged(kind)
+    kP, kR, kS = 2e7, 3e4, np.array([1e4, 2e4, 1.5e4])
+    springs = {f"P{i}": kP for i in range(3)}
+    if all_joints:
+        springs.update({f"R{i}": kR for i in range(3)})
+        springs.update({f"S{i}": kS for i in range(3)})
+    x0 = np.array([0.02, -0.03, 0.01])
+    at = m.solve(x0)
+    res = of_mechanism(m, at, platform="platform", springs=springs)
+    assert res.rigid[0] == 3
+
+    def deflections(poses):
+        """Each spring's coordinate relative to its value at x0, (B, n)."""
+        cols = []
+        for i in range(3):
+            cols.append(poses[f"P{i}"] - at[f"P{i}"])
+            if all_joints:
+                cols.append(poses[f"R{i}"] - at[f"R{i}"])
+                Rr = np.swapaxes(at.rotation(f"S{i}"), -1, -2) @ poses.rotation(f"S{i}")
+                cols.append(log_so3(Rr))
+        return np.column_stack(cols)                     # (B,) and (B, 3) columns
+
+    stiff = [kP] + ([kR, *kS] if all_joints else [])
+    kvec = np.tile(stiff, 3)
+
+    def energy(xs):
+        poses = m.solve(xs)
+        d = deflections(poses)
+        return 0.5 * (d * d * kvec).sum(1)
+
+    h = 1e-4
+    E = np.eye(3) * h
+    stencil = [x0 + a + b for a in (E[0], -E[0], E[1], -E[1], E[2], -E[2]) for b in
+               (E[0], -E[0], E[1], -E[1], E[2], -E[2])]
+    U = energy(np.array(stencil)).reshape(6, 6)
+    H = np.empty((3, 3))
+    for i in range(3):
+        for j in range(3):
+            H[i, j] = (U[2 * i, 2 * j] - U[2 * i, 2 * j + 1] - U[2 * i + 1, 2 * j]
+                       + U[2 * i + 1, 2 * j + 1]) / (4 * h * h)
+    hd = 1e-6
+    Tp = m.solve(np.r_[x0 + np.eye(3) * hd, x0 - np.eye(3) * hd]).link_frame("platform")
+    T0p = at.link_frame("platform")
+    D = log_se3(Tp @ np.linalg.inv(T0p))                   # platform twists about the origin
+    A = (D[:3] - D[3:]).T / (2 * hd)                       # (6, 3) dΔ/ds
+    C_ref = A @ np.linalg.inv(H) @ A.T
+    assert rel(res.C[0], C_ref) < 1e-6

@@ -160,23 +160,39 @@ def test_planar_3rpr_closed_form():
         assert np.abs(res.K[b][others]).max() < 1e-10 * np.abs(Kp).max()
 
 
-def test_bad_arguments_are_named():
-    m = ups(BASE, PLAT, T0)
-    pose = m.solve(np.zeros(6))
-    with pytest.raises(StiffnessError, match="springs: no joint or coordinate named 'Q1'"):
-        of_mechanism(m, pose, platform="platform", springs={"Q1": 1e6})
-    with pytest.raises(StiffnessError, match=r"springs\['P0'\]: expected positive"):
-        of_mechanism(m, pose, platform="platform", springs={"P0": -1.0})
-    with pytest.raises(StiffnessError, match=r"springs\['P0'\]"):
-        of_mechanism(m, pose, platform="platform", springs={"P0": float("nan")})
-    with pytest.raises(StiffnessError, match="platform: expected the name of a moving link"):
-        of_mechanism(m, pose, platform="ground", springs=SPRINGS)
-    with pytest.raises(StiffnessError, match="pose: expected a closure.Pose"):
-        of_mechanism(m, "pose", platform="platform", springs=SPRINGS)
-    with pytest.raises(StiffnessError, match="locked: 'P0' also has a spring"):
-        of_mechanism(m, pose, platform="platform", springs=SPRINGS, locked=["P0"])
-    with pytest.raises(StiffnessError, match="frame: expected None"):
-        of_mechanism(m, pose, platform="platform", springs=SPRINGS, frame="tool")
+_M = ups(BASE, PLAT, T0)
+_POSE = _M.solve(np.zeros(6))
+_GOOD = dict(mechanism=_M, pose=_POSE, platform="platform", springs=SPRINGS)
+
+
+@pytest.mark.parametrize("change, arg", [
+    (dict(mechanism="m"), "mechanism"), (dict(mechanism=None), "mechanism"),
+    (dict(pose="pose"), "pose"), (dict(pose=ups(BASE, PLAT, T0).solve(np.zeros(6))), "pose"),
+    (dict(platform="ground"), "platform"), (dict(platform=3), "platform"),
+    (dict(platform="nowhere"), "platform"),
+    (dict(springs={}), "springs"), (dict(springs=[1e6] * 6), "springs"),
+    (dict(springs={"Q1": 1e6}), "springs"), (dict(springs={"P0": -1.0}), "springs['P0']"),
+    (dict(springs={"P0": 0.0}), "springs['P0']"), (dict(springs={"P0": float("nan")}), "springs['P0']"),
+    (dict(springs={"P0": float("inf")}), "springs['P0']"), (dict(springs={"P0": "1e6"}), "springs['P0']"),
+    (dict(springs={"P0": 1e6 + 1j}), "springs['P0']"), (dict(springs={"P0": [1e6, 2e6]}), "springs['P0']"),
+    (dict(springs={"U0": [[1e6, 1e5], [0, 1e6]]}), "springs['U0']"),
+    (dict(springs={"U0": [[1e6, 2e6], [2e6, 1e6]]}), "springs['U0']"),
+    (dict(springs={"U0.phi": 1e3, "U0": 1e3}), "springs"),
+    (dict(locked=["P0"]), "locked"), (dict(locked=["nothing"]), "locked"),
+    (dict(frame="tool"), "frame"), (dict(frame=(np.eye(3) * 1.01, np.zeros(3))), "frame R"),
+    (dict(frame=(np.eye(3), np.array([0, np.nan, 0]))), "frame p"), (dict(frame=3), "frame"),
+])
+def test_bad_arguments_are_named(change, arg):
+    with pytest.raises(StiffnessError) as info:
+        of_mechanism(**{**_GOOD, **change})
+    assert arg in str(info.value), str(info.value)
+
+
+def test_a_failed_pose_is_refused():
+    bad = _M.solve(np.array([[0.0] * 6, [5.0] * 6]), raise_on_failure=False)
+    assert (bad.status >= 2).any()
+    with pytest.raises(SingularPoseError, match="pose index 1 is not solved"):
+        of_mechanism(**{**_GOOD, "pose": bad})
 
 
 def _three_legged(kind):

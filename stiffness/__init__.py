@@ -14,7 +14,8 @@ blocks, screw_eigenvalues, translational_eigenvalues, rotational_compliance_eige
 stiffness_indices       the report's indices with their units, as a table
 Hexapod                 legs, P, stiffness, compliance, leg forces, loaded stiffness, maps
 of_mechanism            K and C of a link of any closure.Mechanism: elastic, locked and
-                        passive joints (MechanismStiffness)
+                        passive joints (MechanismStiffness); mechanism_map: its
+                        compliance indices over a batch of poses, in chunks
 design_leg_stiffness    convex (LMI) allocation of leg stiffness with cvxpy
 report                  Markdown + CSV stiffness report
 StiffnessError          bad input (names the argument and the expected shape); its subclass
@@ -24,7 +25,7 @@ SingularPoseWarning     near-singular pose (leg forces, deflections amplified ~c
 from .design import design_leg_stiffness
 from .errors import SingularPoseError, SingularPoseWarning, StiffnessError
 from .hexapod import Hexapod, StiffnessResult
-from .mechanism import MechanismStiffness, of_mechanism
+from .mechanism import MechanismStiffness, mechanism_map, of_mechanism
 from .matrices import (blocks, from_blocks, rotational_compliance_eigenvalues, screw_eigenvalues,
                        spring_stiffness, stiffness_indices, stiffness_matrix, transform_blocks,
                        transform_stiffness,
@@ -42,5 +43,5 @@ __all__ = [
     "transform_stiffness", "transform_blocks", "blocks", "stiffness_indices", "from_blocks", "screw_eigenvalues",
     "translational_eigenvalues", "rotational_compliance_eigenvalues", "Hexapod",
     "StiffnessResult", "design_leg_stiffness", "report", "plot_map", "StiffnessError", "SingularPoseError",
-    "SingularPoseWarning", "of_mechanism", "MechanismStiffness",
+    "SingularPoseWarning", "of_mechanism", "MechanismStiffness", "mechanism_map",
 ]

@@ -23,12 +23,16 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
 
 from .errors import SingularPoseError, StiffnessError
 from .sixvector import twist_transform
 from .validate import as_array, rotation, vec3
 
-__all__ = ["MechanismStiffness", "of_mechanism"]
+__all__ = ["MechanismStiffness", "of_mechanism", "mechanism_map"]
+
+#: poses per chunk of :func:`mechanism_map` (bounds its working memory)
+MAP_CHUNK = 2048
 
 #: singular values of the dimensionless loop Jacobian below this fraction of the
 #: largest count as zero (the engine's own rank rule)
@@ -218,6 +222,27 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict, locked=None,
     on where the world origin is.  One SVD and one symmetric eigenproblem per pose,
     batched; poses are grouped only where the Jacobian's rank differs (singular poses).
     """
+    _check(mechanism, pose, platform)
+    bad = np.flatnonzero(np.atleast_1d(pose.status) >= 2)
+    if bad.size:
+        raise SingularPoseError(f"pose: pose index {int(bad[0])} is not solved (status "
+                                f"{int(np.atleast_1d(pose.status)[bad[0]])}); its stiffness is "
+                                "undefined")
+    roles = _roles(mechanism, springs, locked)
+    ks = pose.kinematics()
+    R, p = _frame(frame, ks["link"][:, mechanism.tree.link_index[platform]])
+    res, free = _stiffness(mechanism, ks, platform, roles, R, p)
+    if free.any():
+        b = int(np.flatnonzero(free)[0])
+        raise SingularPoseError(
+            f"pose: at pose index {b} the platform {platform!r} can move without deforming any "
+            f"spring (a free motion of the mechanism, loop condition {res.condition[b]:.3g}): "
+            "give springs to more joints or lock them (passive coordinates: "
+            f"{', '.join(res.passive) or 'none'})")
+    return res
+
+
+def _check(mechanism, pose, platform):
     from closure import Mechanism, Pose
     if not isinstance(mechanism, Mechanism):
         raise StiffnessError(f"mechanism: expected a closure.Mechanism, got "
@@ -229,14 +254,13 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict, locked=None,
             platform == mechanism.links[0]:
         raise StiffnessError(f"platform: expected the name of a moving link ("
                              f"{', '.join(mechanism.links[1:])}), got {platform!r}")
-    bad = np.flatnonzero(np.atleast_1d(pose.status) >= 2)
-    if bad.size:
-        raise SingularPoseError(f"pose: pose index {int(bad[0])} is not solved (status "
-                                f"{int(np.atleast_1d(pose.status)[bad[0]])}); its stiffness is "
-                                "undefined")
-    Kq, elastic, lock, passive = _roles(mechanism, springs, locked)
+
+
+def _stiffness(mechanism, ks, platform, roles, R, p):
+    """The result for one batch of kinematic states in the frames ``R (B, 3, 3)``, ``p (B,
+    3)``, and which poses have a free motion (their K, C are left zero there)."""
+    Kq, elastic, lock, passive = roles
     t = mechanism.tree
-    ks = pose.kinematics()
     S = ks["S"]                                           # (B, nv, 6) world twists
     B = S.shape[0]
     L = t.scale
@@ -248,8 +272,6 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict, locked=None,
     Kq_s = Kq[np.ix_(free, free)] * colf[:, None] * colf  # energy per dimensionless motion
     A = (t.path_sign[t.link_index[platform]][free, None] * S[:, free]).transpose(0, 2, 1)
     A = A * colf                                          # (B, 6, nf): Δ about the world origin
-    link_T = ks["link"][:, t.link_index[platform]]
-    R, p = _frame(frame, link_T)
     A = twist_transform(R, p) @ A                         # Δ about p, in the frame's axes
     nf = free.size
     if t.chords:
@@ -264,6 +286,7 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict, locked=None,
     C = np.zeros((B, 6, 6))
     K = np.zeros((B, 6, 6))
     rigid = np.zeros(B, int)
+    free_motion = np.zeros(B, bool)
     unit = np.r_[np.full(3, 1 / L), np.ones(3)]           # Δ made dimensionless
 
     def group(idx, r):
@@ -276,14 +299,9 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict, locked=None,
         Ms = M * unit[:, None]
         stored = lam > ENERGY_RTOL * np.maximum(lam[:, -1:], 1e-300)
         moves = np.linalg.norm(Ms, axis=1) > FREE_MOTION_TOL
-        loose = moves & ~stored
-        if loose.any():
-            b = int(np.flatnonzero(loose.any(1))[0])
-            raise SingularPoseError(
-                f"pose: at pose index {int(idx[b])} the platform {platform!r} can move without "
-                f"deforming any spring (a free motion of the mechanism, loop condition "
-                f"{cond[idx[b]]:.3g}): give springs to more joints or lock them "
-                f"(passive coordinates: {', '.join(_labels(mechanism, passive)) or 'none'})")
+        loose = (moves & ~stored).any(1)
+        free_motion[idx] = loose
+        stored &= ~loose[:, None]                         # those poses are left at zero
         inv = np.where(stored, 1 / np.where(stored, lam, 1), 0.0)
         C[idx] = np.einsum("bik,bk,bjk->bij", M, inv, M)
         # compliant directions: the range of the energy-storing modes' platform motions
@@ -300,9 +318,75 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict, locked=None,
             K[idx[g]] = Qi @ np.linalg.inv(Cq) @ np.swapaxes(Qi, 1, 2)
 
     _by_rank(rank, group)
+    rigid[free_motion] = 0
     return MechanismStiffness(K, C, rigid, np.array(p, dtype=float), np.array(R, dtype=float),
                               cond, _labels(mechanism, elastic), _labels(mechanism, lock),
-                              _labels(mechanism, passive))
+                              _labels(mechanism, passive)), free_motion
+
+
+def mechanism_map(mechanism, pose, *, platform: str, springs: dict, locked=None,
+                  point=None) -> pd.DataFrame:
+    """Compliance indices of a link over a batch of solved poses, one row per pose.
+
+    The poses are processed in chunks of :data:`MAP_CHUNK` (bounded memory); a pose where
+    the link can move without deforming any spring is flagged, not raised.
+
+    Parameters
+    ----------
+    mechanism, pose, platform, springs, locked
+        As :func:`of_mechanism` (``pose`` a batch from ``solve`` or ``sweep``).
+    point : array_like, shape (3,), optional
+        Reference point of the indices: a point of the platform link given by its world
+        coordinates at the assembly pose (closure's convention for points on links), for
+        instance the tool centre.  Default: the link frame's origin, which is the world
+        origin at the assembly pose.  Axes: the platform's.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The inputs (one column per input, rad or m), the reference point ``x, y, z`` (world,
+        m), ``ct_max`` (m/N: the largest translational compliance, the deflection per
+        newton in the weakest direction), ``cr_max`` (rad/(N·m)), ``rigid`` (directions
+        held rigidly), ``condition`` (of the loop Jacobian), ``free`` (True: the link can
+        move without deforming a spring; its compliance is then infinite: ``inf``) and
+        ``ok`` (the pose closed: status below 2; other rows are ``NaN`` with ``ok``
+        False).  ``.attrs["units"]`` gives the units.
+    """
+    _check(mechanism, pose, platform)
+    c = np.zeros(3) if point is None else vec3(point, "point")
+    if c.shape != (3,):
+        raise StiffnessError(f"point: expected one point (3,) (m), got shape {c.shape}")
+    roles = _roles(mechanism, springs, locked)
+    B = len(pose.residual)
+    ok = np.atleast_1d(pose.status) < 2
+    ct = np.full(B, np.nan)
+    cr = np.full(B, np.nan)
+    rigid = np.zeros(B, int)
+    cond = np.full(B, np.nan)
+    free = np.zeros(B, bool)
+    origin = np.full((B, 3), np.nan)
+    t = mechanism.tree
+    good = np.flatnonzero(ok)
+    for a in range(0, good.size, MAP_CHUNK):
+        idx = good[a:a + MAP_CHUNK]
+        ks = mechanism.kinematic_state((pose.q[idx], pose.rot[idx]))
+        T = ks["link"][:, t.link_index[platform]]
+        R = np.swapaxes(T[:, :3, :3], 1, 2)
+        ref = T[:, :3, :3] @ c + T[:, :3, 3]
+        res, fr = _stiffness(mechanism, ks, platform, roles, R, ref)
+        Ct, Cr = res.C[:, :3, :3], res.C[:, 3:, 3:]
+        ct[idx] = np.linalg.eigvalsh(0.5 * (Ct + np.swapaxes(Ct, 1, 2)))[:, -1]
+        cr[idx] = np.linalg.eigvalsh(0.5 * (Cr + np.swapaxes(Cr, 1, 2)))[:, -1]
+        ct[idx[fr]] = cr[idx[fr]] = np.inf
+        rigid[idx], cond[idx], free[idx] = res.rigid, res.condition, fr
+        origin[idx] = ref
+    inputs = np.atleast_2d(pose.inputs).reshape(B, -1)
+    df = pd.DataFrame({lab: inputs[:, i] for i, lab in enumerate(mechanism.input_labels())})
+    df = df.assign(x=origin[:, 0], y=origin[:, 1], z=origin[:, 2], ct_max=ct, cr_max=cr,
+                   rigid=rigid, condition=cond, free=free, ok=ok)
+    df.attrs["reference"] = "platform point " + str([float(v) for v in c]) + " m"
+    df.attrs["units"] = {"x": "m", "y": "m", "z": "m", "ct_max": "m/N", "cr_max": "rad/(N·m)"}
+    return df
 
 
 def _labels(mech, cols) -> list:

@@ -3,7 +3,7 @@ import numpy as np
 import pytest
 
 from closure import Mechanism, exp_so3
-from stiffness import Hexapod, SingularPoseError, StiffnessError, of_mechanism
+from stiffness import Hexapod, SingularPoseError, StiffnessError, mechanism_map, of_mechanism
 
 rng = np.random.default_rng(17)
 
@@ -272,3 +272,39 @@ def test_three_legged_against_fd_hessian_of_the_elastic_energy(kind, all_joints)
     A = (D[:3] - D[3:]).T / (2 * hd)                       # (6, 3) dΔ/ds
     C_ref = A @ np.linalg.inv(H) @ A.T
     assert rel(res.C[0], C_ref) < 1e-6
+
+
+def test_map_chunks_flags_and_matches_the_hexapod(monkeypatch):
+    import stiffness.mechanism as sm
+    hx = Hexapod(BASE, PLAT, KLEG)
+    x = np.r_[rng.normal(size=(9, 6)) * 0.02, np.full((1, 6), 5.0)]    # the last cannot close
+    pose = _M.solve(x, raise_on_failure=False)
+    monkeypatch.setattr(sm, "MAP_CHUNK", 4)
+    tcp = T0[:3, 3]                               # the platform centre at the assembly pose
+    df = mechanism_map(_M, pose, platform="platform", springs=SPRINGS, point=tcp)
+    assert list(df.columns[:6]) == [f"P{i}" for i in range(6)] and len(df) == 10
+    assert df.ok[:9].all() and not df.ok[9] and np.isnan(df.ct_max[9])
+    Ts = pose.link_frame("platform") @ T0
+    for i in range(9):
+        R, p = Ts[i, :3, :3].T, Ts[i, :3, 3]        # the hexapod's platform frame at its centre
+        assert np.allclose(df[["x", "y", "z"]].iloc[i], p, rtol=0, atol=1e-12)
+        C = hx.compliance(Ts[i])                 # its rotational block is the same about any point
+        Cp = np.linalg.inv(hx.stiffness(Ts[i], frame=(R, p)).K)
+        assert np.isclose(df.ct_max[i], np.linalg.eigvalsh(Cp[:3, :3])[-1], rtol=1e-9)
+        assert np.isclose(df.cr_max[i], np.linalg.eigvalsh(C[3:, 3:])[-1], rtol=1e-9)
+    monkeypatch.setattr(sm, "MAP_CHUNK", 2048)
+    whole = mechanism_map(_M, pose, platform="platform", springs=SPRINGS, point=tcp)
+    assert np.allclose(whole.ct_max[:9], df.ct_max[:9], rtol=1e-13)
+    five = {f"P{i}": KLEG[i] for i in range(5)}
+    loose = mechanism_map(_M, pose, platform="platform", springs=five, locked=[])
+    assert loose.free[:9].all() and np.isinf(loose.ct_max[:9]).all()
+
+
+@pytest.mark.parametrize("change, arg", [
+    (dict(point=[0, np.nan, 0]), "point"), (dict(point=[0, 0]), "point"), (dict(point="tcp"), "point"),
+    (dict(point=np.zeros((2, 3))), "point"), (dict(springs={"P0": -1}), "springs['P0']"),
+    (dict(platform="l9"), "platform"), (dict(pose=None), "pose")])
+def test_map_bad_arguments_are_named(change, arg):
+    with pytest.raises(StiffnessError) as info:
+        mechanism_map(**{**_GOOD, **change})
+    assert arg in str(info.value), str(info.value)

@@ -27,7 +27,9 @@ import pandas as pd
 
 from .errors import SingularPoseError, StiffnessError
 from .sixvector import twist_transform
-from .validate import as_array, rotation, vec3
+from closure.frames import adjoint
+
+from .validate import as_array, rotation, transform, vec3
 
 __all__ = ["MechanismStiffness", "of_mechanism", "mechanism_map"]
 
@@ -93,8 +95,58 @@ class MechanismStiffness:
                 "passive coordinates)")
 
 
-def _roles(mech, springs, locked):
-    """(Kq (nv, nv), elastic, locked, passive index arrays) from the user's spring map."""
+def _link_springs(mech, link_springs) -> list:
+    """Checked ``(link index, joint column, F (4, 4), K (6, 6), label)`` of each link spring."""
+    if link_springs is None:
+        return []
+    if isinstance(link_springs, (str, dict)) or not hasattr(link_springs, "__iter__"):
+        raise StiffnessError("link_springs: expected a list of (link, joint, frame, K), got "
+                             f"{type(link_springs).__name__}")
+    out = []
+    for i, item in enumerate(link_springs):
+        where = f"link_springs[{i}]"
+        try:
+            link, joint, F, K = item
+        except (TypeError, ValueError):
+            raise StiffnessError(f"{where}: expected (link, joint, frame, K), got "
+                                 f"{type(item).__name__}") from None
+        if not isinstance(link, str) or link not in mech.links or link == mech.links[0]:
+            raise StiffnessError(f"{where}: link: expected a moving link, got {link!r}")
+        names = [j.name for j in mech.joints]
+        if not isinstance(joint, str) or joint not in names:
+            raise StiffnessError(f"{where}: joint: no joint named {joint!r}")
+        j = mech.joints[names.index(joint)]
+        if link not in (j.link_a, j.link_b):
+            raise StiffnessError(f"{where}: joint {joint!r} joins {j.link_a!r} and "
+                                 f"{j.link_b!r}, not the link {link!r}")
+        F = transform(F, f"{where}: frame")
+        if F.shape != (4, 4):
+            raise StiffnessError(f"{where}: frame: expected one 4x4 transform, got shape "
+                                 f"{F.shape}")
+        K6 = _spd(K, f"{where}: K", 6)
+        out.append((mech.tree.link_index[link], mech.tree.v_offset[j.index], F, K6,
+                    f"{link}@{joint}"))
+    return out
+
+
+def _spd(value, name, n):
+    """A symmetric positive definite n x n matrix from a number, n numbers or a matrix."""
+    k = as_array(value, name, what=f"a stiffness (N/m or N·m/rad), {n} of them or a "
+                                   f"{n}x{n} matrix")
+    if k.shape in ((), (1,), (n,)):
+        k = np.diag(np.broadcast_to(k, (n,)).astype(float))
+    elif k.shape != (n, n):
+        raise StiffnessError(f"{name}: expected a stiffness, {n} of them or a {n}x{n} matrix, "
+                             f"got shape {k.shape}")
+    if not np.allclose(k, k.T, rtol=1e-12, atol=0) or np.linalg.eigvalsh(k).min() <= 0:
+        raise StiffnessError(f"{name}: expected positive stiffness (a symmetric positive "
+                             "definite matrix)")
+    return 0.5 * (k + k.T)
+
+
+def _roles(mech, springs, locked, link_springs=None):
+    """(Kq (nv, nv), elastic, locked, passive index arrays, link springs) from the user's
+    spring maps."""
     labels = mech.velocity_labels()
     t = mech.tree
     cols_of = {}
@@ -104,7 +156,10 @@ def _roles(mech, springs, locked):
         if j.nv > 1:
             for c in cols:
                 cols_of[labels[c]] = [c]
-    if not isinstance(springs, dict) or not springs:
+    links = _link_springs(mech, link_springs)
+    if springs is None and links:
+        springs = {}
+    if not isinstance(springs, dict) or not (springs or links):
         raise StiffnessError("springs: expected a non-empty dict {joint or 'joint.coordinate': "
                              f"stiffness}}, got {type(springs).__name__}")
     Kq = np.zeros((t.nv, t.nv))
@@ -116,19 +171,7 @@ def _roles(mech, springs, locked):
         cols = cols_of[key]
         if set(cols) & set(elastic):
             raise StiffnessError(f"springs: {key!r} given a spring twice")
-        k = as_array(value, f"springs[{key!r}]",
-                     what=f"a stiffness (N/m or N·m/rad), {len(cols)} of them or a "
-                          f"{len(cols)}x{len(cols)} matrix")
-        n = len(cols)
-        if k.shape in ((), (1,), (n,)):
-            k = np.diag(np.broadcast_to(k, (n,)).astype(float))
-        elif k.shape != (n, n):
-            raise StiffnessError(f"springs[{key!r}]: expected a stiffness, {n} of them or a "
-                                 f"{n}x{n} matrix, got shape {k.shape}")
-        if not np.allclose(k, k.T, rtol=1e-12, atol=0) or np.linalg.eigvalsh(k).min() <= 0:
-            raise StiffnessError(f"springs[{key!r}]: expected positive stiffness (a symmetric "
-                                 "positive definite matrix)")
-        Kq[np.ix_(cols, cols)] = 0.5 * (k + k.T)
+        Kq[np.ix_(cols, cols)] = _spd(value, f"springs[{key!r}]", len(cols))
         elastic += cols
     if locked is None:
         lock = [c for c in mech.input_columns() if c not in elastic]
@@ -145,7 +188,7 @@ def _roles(mech, springs, locked):
             lock += cols_of[key]
     elastic_a, lock_a = np.array(sorted(elastic), int), np.array(sorted(set(lock)), int)
     passive = np.setdiff1d(np.arange(t.nv), np.r_[elastic_a, lock_a])
-    return Kq, elastic_a, lock_a, passive
+    return Kq, elastic_a, lock_a, passive, links
 
 
 def _frame(frame, link_T):
@@ -176,8 +219,8 @@ def _by_rank(values, fn):
         fn(np.flatnonzero(values == r), int(r))
 
 
-def of_mechanism(mechanism, pose, *, platform: str, springs: dict, locked=None,
-                 frame=None) -> MechanismStiffness:
+def of_mechanism(mechanism, pose, *, platform: str, springs: dict | None = None, locked=None,
+                 link_springs=None, frame=None) -> MechanismStiffness:
     """Cartesian stiffness of the link ``platform`` of a mechanism at solved poses.
 
     Parameters
@@ -197,6 +240,14 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict, locked=None,
     locked : iterable of str, optional
         Joints or coordinates held rigidly.  Default: the mechanism's inputs that have
         no spring (actuators locked).  Every other coordinate without a spring is passive.
+    link_springs : list of (link, joint, frame, K), optional
+        Elastic links (the virtual-joint method): the link deforms between its body and
+        its attachment to ``joint`` by a small displacement resisted by the 6x6 stiffness
+        ``K`` (about the origin of ``frame``, in its axes; blocks N/m, N/rad, N·m/rad).
+        ``frame`` is a 4x4 transform given, like joint frames, in world coordinates at
+        the assembly pose; :func:`beam_stiffness` gives K for a beam.  A beam joining
+        ``joint`` to the link's other joint is a cantilever clamped at ``joint``: take
+        ``frame`` at the other end, x along the beam away from ``joint``.
     frame : None, "platform" or (R, p)
         The result's reference point and axes: the world origin and axes (None), the
         platform link's frame, or origin ``p`` (world coordinates, m) with
@@ -228,7 +279,7 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict, locked=None,
         raise SingularPoseError(f"pose: pose index {int(bad[0])} is not solved (status "
                                 f"{int(np.atleast_1d(pose.status)[bad[0]])}); its stiffness is "
                                 "undefined")
-    roles = _roles(mechanism, springs, locked)
+    roles = _roles(mechanism, springs, locked, link_springs)
     ks = pose.kinematics()
     R, p = _frame(frame, ks["link"][:, mechanism.tree.link_index[platform]])
     res, free = _stiffness(mechanism, ks, platform, roles, R, p)
@@ -256,26 +307,52 @@ def _check(mechanism, pose, platform):
                              f"{', '.join(mechanism.links[1:])}), got {platform!r}")
 
 
+def _columns(mechanism, ks, platform, roles):
+    """The motion columns of a batch: the free and elastic joint coordinates, then six per
+    link spring.  Returns their world twists ``(B, n, 6)``, loop coefficients ``(nloops,
+    n)``, platform-path coefficients ``(n,)``, length scale of each column ``(n,)`` and
+    the stiffness over them ``(n, n)`` (units of the columns)."""
+    Kq, elastic, lock, passive, links = roles
+    t = mechanism.tree
+    col = np.ones(t.nv)
+    col[t.length_cols] = t.scale                          # dq = col · dq_s, dq_s dimensionless
+    free = np.sort(np.r_[elastic, passive].astype(int))
+    path = t.path_sign[t.link_index[platform]]
+    twists = [ks["S"][:, free]]
+    loop, along, scale = [t.loop_coef[:, free]], [path[free]], [col[free]]
+    stiff = [Kq[np.ix_(free, free)]]
+    for li, c, F, K6, _ in links:
+        # a deformation of the link in series with the joint: six unit twists of the frame
+        # F carried by the link, with the joint's own loop and path coefficients
+        twists.append(np.swapaxes(adjoint(ks["link"][:, li] @ F), 1, 2))
+        loop.append(np.repeat(t.loop_coef[:, c:c + 1], 6, 1))
+        along.append(np.full(6, path[c]))
+        scale.append(np.r_[np.full(3, t.scale), np.ones(3)])
+        stiff.append(K6)
+    n = sum(len(a) for a in along)
+    Kall = np.zeros((n, n))
+    i = 0
+    for k in stiff:
+        Kall[i:i + len(k), i:i + len(k)] = k
+        i += len(k)
+    return (np.concatenate(twists, 1), np.concatenate(loop, 1), np.concatenate(along),
+            np.concatenate(scale), Kall)
+
+
 def _stiffness(mechanism, ks, platform, roles, R, p):
     """The result for one batch of kinematic states in the frames ``R (B, 3, 3)``, ``p (B,
     3)``, and which poses have a free motion (their K, C are left zero there)."""
-    Kq, elastic, lock, passive = roles
+    Kq, elastic, lock, passive, links = roles
     t = mechanism.tree
-    S = ks["S"]                                           # (B, nv, 6) world twists
-    B = S.shape[0]
+    W, loop, along, colf, Kc = _columns(mechanism, ks, platform, roles)
+    B, nf = W.shape[:2]
     L = t.scale
-    col = np.ones(t.nv)
-    col[t.length_cols] = L                                # dq = col · dq_s, dq_s dimensionless
-    free = np.r_[elastic, passive].astype(int)
-    free.sort()
-    colf = col[free]
-    Kq_s = Kq[np.ix_(free, free)] * colf[:, None] * colf  # energy per dimensionless motion
-    A = (t.path_sign[t.link_index[platform]][free, None] * S[:, free]).transpose(0, 2, 1)
-    A = A * colf                                          # (B, 6, nf): Δ about the world origin
+    Kq_s = Kc * colf[:, None] * colf                      # energy per dimensionless motion
+    A = (along[:, None] * W).transpose(0, 2, 1) * colf    # (B, 6, nf): Δ about the world origin
     A = twist_transform(R, p) @ A                         # Δ about p, in the frame's axes
-    nf = free.size
     if t.chords:
-        J = mechanism._scaled_jacobian(ks)[:, :, free]
+        Jw = np.einsum("kc,bcs->bksc", loop, W).reshape(B, -1, nf)
+        J = mechanism._scaled_rows(Jw) * colf             # dimensionless, about the centre
         _, s, Vt = np.linalg.svd(J, full_matrices=True)
         rank = np.sum(s > RANK_RTOL * np.maximum(s[:, :1], 1e-300), axis=1)
     else:
@@ -320,12 +397,12 @@ def _stiffness(mechanism, ks, platform, roles, R, p):
     _by_rank(rank, group)
     rigid[free_motion] = 0
     return MechanismStiffness(K, C, rigid, np.array(p, dtype=float), np.array(R, dtype=float),
-                              cond, _labels(mechanism, elastic), _labels(mechanism, lock),
-                              _labels(mechanism, passive)), free_motion
+                              cond, _labels(mechanism, elastic) + [x[4] for x in links],
+                              _labels(mechanism, lock), _labels(mechanism, passive)), free_motion
 
 
-def mechanism_map(mechanism, pose, *, platform: str, springs: dict, locked=None,
-                  point=None) -> pd.DataFrame:
+def mechanism_map(mechanism, pose, *, platform: str, springs: dict | None = None, locked=None,
+                  link_springs=None, point=None) -> pd.DataFrame:
     """Compliance indices of a link over a batch of solved poses, one row per pose.
 
     The poses are processed in chunks of :data:`MAP_CHUNK` (bounded memory); a pose where
@@ -333,7 +410,7 @@ def mechanism_map(mechanism, pose, *, platform: str, springs: dict, locked=None,
 
     Parameters
     ----------
-    mechanism, pose, platform, springs, locked
+    mechanism, pose, platform, springs, locked, link_springs
         As :func:`of_mechanism` (``pose`` a batch from ``solve`` or ``sweep``).
     point : array_like, shape (3,), optional
         Reference point of the indices: a point of the platform link given by its world
@@ -356,7 +433,7 @@ def mechanism_map(mechanism, pose, *, platform: str, springs: dict, locked=None,
     c = np.zeros(3) if point is None else vec3(point, "point")
     if c.shape != (3,):
         raise StiffnessError(f"point: expected one point (3,) (m), got shape {c.shape}")
-    roles = _roles(mechanism, springs, locked)
+    roles = _roles(mechanism, springs, locked, link_springs)
     B = len(pose.residual)
     ok = np.atleast_1d(pose.status) < 2
     ct = np.full(B, np.nan)

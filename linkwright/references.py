@@ -167,3 +167,41 @@ def fourbar_rod_reference(geom, masses, t2_0, g=9.81, branch=1):
         return -r0 / (r1 - r0)
 
     return accel
+
+
+# ---------------------------------------------------------------- 6-UPS platform
+def axis_frame(z, x, o):
+    """A 4x4 frame with Z along ``z``, X along the part of ``x`` normal to it, origin ``o``."""
+    z = np.asarray(z, float) / np.linalg.norm(z)
+    x = np.asarray(x, float) - z * (np.asarray(x, float) @ z)
+    x = x / np.linalg.norm(x)
+    T = np.eye(4)
+    T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = x, np.cross(z, x), z, o
+    return T
+
+
+def ups_platform(base, plat, T0, Q=np.eye(3), s=np.zeros(3)):
+    """A 6-UPS platform (a hexapod built from joints) drawn with its platform at the pose
+    ``T0``: per leg a Hooke joint at the base point, a prismatic joint ``P{i}`` along the leg
+    (the inputs) and a spherical joint at the platform point; links ``l{i}``, ``u{i}`` and
+    ``platform``.  ``Q, s`` move the whole drawing by ``r → Q r + s``."""
+    def moved(T):
+        out = T.copy()
+        out[:3, :3] = Q @ T[:3, :3]
+        out[:3, 3] = Q @ T[:3, 3] + s
+        return out
+
+    n = len(base)
+    m = Mechanism([f"l{i}" for i in range(n)] + [f"u{i}" for i in range(n)] + ["platform"])
+    w = plat @ T0[:3, :3].T + T0[:3, 3]
+    for i in range(n):
+        u = w[i] - base[i]
+        e = np.eye(3)[np.argmin(abs(u))]
+        pin = np.cross(u, e)
+        m.add_joint(f"U{i}", "U", "ground", f"l{i}",
+                    at=moved(axis_frame(pin, np.cross(u, pin), base[i])))
+        m.add_joint(f"P{i}", "P", f"l{i}", f"u{i}", at=moved(axis_frame(u, e, base[i])))
+        m.add_joint(f"S{i}", "S", f"u{i}", "platform",
+                    at=moved(axis_frame([0, 0, 1], [1, 0, 0], w[i])))
+        m.add_input(f"P{i}")
+    return m

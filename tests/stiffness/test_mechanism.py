@@ -3,44 +3,14 @@ import numpy as np
 import pytest
 
 from closure import Mechanism, exp_so3
+from linkwright.references import axis_frame, ups_platform
 from stiffness import Hexapod, SingularPoseError, StiffnessError, mechanism_map, of_mechanism
 
 rng = np.random.default_rng(17)
 
 
-def frame(z, x, o):
-    """A 4x4 frame with Z along z, X along x's part normal to z, origin o."""
-    z = np.asarray(z, float) / np.linalg.norm(z)
-    x = np.asarray(x, float) - z * (np.asarray(x, float) @ z)
-    x /= np.linalg.norm(x)
-    T = np.eye(4)
-    T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = x, np.cross(z, x), z, o
-    return T
-
-
-def moved(T, Q, s):
-    """A frame after the rigid motion r → Q r + s."""
-    out = T.copy()
-    out[:3, :3] = Q @ T[:3, :3]
-    out[:3, 3] = Q @ T[:3, 3] + s
-    return out
-
-
-def ups(base, plat, T0, Q=np.eye(3), s=np.zeros(3)):
-    """A 6-UPS platform drawn at platform pose T0 (optionally the whole model moved by Q, s)."""
-    n = len(base)
-    m = Mechanism([f"l{i}" for i in range(n)] + [f"u{i}" for i in range(n)] + ["platform"])
-    w = plat @ T0[:3, :3].T + T0[:3, 3]
-    for i in range(n):
-        u = w[i] - base[i]
-        e = np.eye(3)[np.argmin(abs(u))]
-        pin = np.cross(u, e)
-        m.add_joint(f"U{i}", "U", "ground", f"l{i}",
-                    at=moved(frame(pin, np.cross(u, pin), base[i]), Q, s))
-        m.add_joint(f"P{i}", "P", f"l{i}", f"u{i}", at=moved(frame(u, e, base[i]), Q, s))
-        m.add_joint(f"S{i}", "S", f"u{i}", "platform", at=moved(frame([0, 0, 1], [1, 0, 0], w[i]), Q, s))
-        m.add_input(f"P{i}")
-    return m
+frame = axis_frame
+ups = ups_platform
 
 
 A_ = np.radians([0, 100, 120, 220, 240, 340])

@@ -20,12 +20,15 @@ class DesignResult:
     k : numpy.ndarray (n,)
         Leg stiffnesses (N/m).
     objective : float
-        The solver's optimum: worst-case smallest translational eigenvalue (N/m).
+        The solver's optimum: worst-case smallest eigenvalue of the criterion's matrix
+        (N/m).
     verified : float
         The same figure recomputed from ``k`` by eigenvalues (N/m).
     per_pose : numpy.ndarray
-        Smallest translational eigenvalue at each design pose (N/m).
+        Smallest eigenvalue at each design pose (N/m).
     solver, status : str
+    criterion : str
+        "whole" or "translational" (see :func:`design_leg_stiffness`).
     """
 
     k: np.ndarray
@@ -34,16 +37,22 @@ class DesignResult:
     per_pose: np.ndarray
     solver: str
     status: str
+    criterion: str = "whole"
 
 
 def design_leg_stiffness(hexapod, poses, budget: float, *, k_min: float = 0.0,
-                         solver: str | None = None) -> DesignResult:
+                         criterion: str = "whole", solver: str | None = None) -> DesignResult:
     """Leg stiffnesses ``k ≥ k_min`` with ``Σ k ≤ budget`` that maximise the worst-case
-    smallest eigenvalue of the translational stiffness block over ``poses``.
+    smallest eigenvalue of the stiffness over ``poses``.
 
-    The translational block ``K_n(k) = Σ_i k_i u_i u_iᵀ`` is linear in ``k``, so the
-    problem ``max t  s.t.  K_n,j(k) ⪰ t I`` for every pose j is a semidefinite
-    program (solved by cvxpy; Clarabel or SCS, which ship with it).
+    ``criterion="whole"`` (default) takes the whole 6x6 stiffness made dimensionless:
+    about the platform points' centroid, moments divided by the platform radius r
+    (``K̂ = Σ k_i p̂_i p̂_iᵀ`` with ``p̂_i = (u_i, (c_i × u_i)/r)``), so no direction of
+    the platform, translation or rotation, is left weak.  ``"translational"`` takes only
+    the translational block ``K_n = Σ k_i u_i u_iᵀ``, which three legs can serve alone:
+    give ``k_min`` then, or the other legs may be left without stiffness and K singular.
+    Either matrix is linear in ``k``, so ``max t  s.t.  K_j(k) ⪰ t I`` for every pose j
+    is a semidefinite program (solved by cvxpy; Clarabel or SCS, which ship with it).
 
     Parameters
     ----------
@@ -55,6 +64,8 @@ def design_leg_stiffness(hexapod, poses, budget: float, *, k_min: float = 0.0,
         Total stiffness available (N/m), positive.
     k_min : float
         Smallest stiffness of a leg (N/m), non-negative.
+    criterion : {"whole", "translational"}
+        The matrix whose worst-case smallest eigenvalue is maximised (N/m).
     solver : str, optional
         A cvxpy solver name installed here (default: cvxpy's choice).
 
@@ -85,17 +96,25 @@ def design_leg_stiffness(hexapod, poses, budget: float, *, k_min: float = 0.0,
                                solver.upper() not in cp.installed_solvers()):
         raise StiffnessError(f"solver: expected None or one of the installed cvxpy solvers "
                              f"{', '.join(cp.installed_solvers())}, got {solver!r}")
+    if criterion not in ("whole", "translational"):
+        raise StiffnessError(f"criterion: expected 'whole' or 'translational', got {criterion!r}")
     n = hexapod.base.shape[0]
     if k_min * n > budget:
         raise StiffnessError(f"k_min: {n} legs × {k_min} exceeds the budget {budget}")
-    _, u = hexapod.legs(T)                                  # (B, n, 3)
+    if criterion == "whole":
+        Pc = hexapod._at_centroid(hexapod.leg_matrix(T), T)       # (B, 6, n)
+        Pc[:, 3:] /= hexapod.radius
+        u = np.swapaxes(Pc, 1, 2)                                 # (B, n, 6) columns p̂_i
+    else:
+        u = hexapod.legs(T)[1]                                    # (B, n, 3)
+    d = u.shape[-1]
     scale = budget / n                                      # work in units of the mean leg
     x = cp.Variable(n)
     t = cp.Variable()
     cons = [x >= k_min / scale, cp.sum(x) <= n]
     for j in range(T.shape[0]):
-        Kn = sum(x[i] * np.outer(u[j, i], u[j, i]) for i in range(n))
-        cons.append(0.5 * (Kn + Kn.T) - t * np.eye(3) >> 0)
+        Kj = sum(x[i] * np.outer(u[j, i], u[j, i]) for i in range(n))
+        cons.append(0.5 * (Kj + Kj.T) - t * np.eye(d) >> 0)
     prob = cp.Problem(cp.Maximize(t), cons)
     try:
         prob.solve(solver=solver)
@@ -106,4 +125,4 @@ def design_leg_stiffness(hexapod, poses, budget: float, *, k_min: float = 0.0,
     k = np.maximum(np.asarray(x.value) * scale, 0.0)
     per = np.linalg.eigvalsh(np.einsum("i,bij,bik->bjk", k, u, u))[:, 0]
     return DesignResult(k, float(t.value) * scale, float(per.min()), per,
-                        str(prob.solver_stats.solver_name), str(prob.status))
+                        str(prob.solver_stats.solver_name), str(prob.status), criterion)

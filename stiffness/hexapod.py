@@ -247,7 +247,7 @@ class Hexapod:
             where = f" (pose index {i})" if i else ""
             raise SingularPoseError(f"pose: pose is singular (cond(P) = {float(c[i]):.2e} > "
                                     f"singular_cond = {self.singular_cond:.0e}){where}; {what} "
-                                    "is undefined there")
+                                    "undefined there")
         return bool(np.any(c > self.warn_cond))
 
     def _near_singular(self, c, what, figure=""):
@@ -256,11 +256,12 @@ class Hexapod:
                       "are amplified by up to ~cond(P) there", SingularPoseWarning, stacklevel=3)
 
     def _frame(self, frame, pose):
-        if frame is None:
+        if frame is None or isinstance(frame, str) and frame == "base":
             return np.eye(3), np.zeros(3)
         if isinstance(frame, str):
             if frame != "platform":
-                raise StiffnessError(f"frame: expected None, 'platform' or (R, p), got {frame!r}")
+                raise StiffnessError(f"frame: expected 'base' (or None), 'platform' or (R, p), "
+                                     f"got {frame!r}")
             T = np.asarray(pose, dtype=float)
             return np.swapaxes(T[..., :3, :3], -1, -2), T[..., :3, 3]
         try:
@@ -287,9 +288,9 @@ class Hexapod:
         Parameters
         ----------
         pose : array_like, shape (4, 4) or (B, 4, 4)
-        frame : None, "platform" or (R, p)
-            The result's frame: base origin and axes (None), the platform frame,
-            or origin ``p`` (base coordinates) with ``r' = R (r − p)``.
+        frame : "base" (or None), "platform" or (R, p)
+            The result's frame: base origin and axes (the default), the platform
+            frame, or origin ``p`` (base coordinates) with ``r' = R (r − p)``.
 
         Returns
         -------
@@ -436,10 +437,10 @@ class Hexapod:
         pose : array_like, shape (4, 4)
         wrench : array_like, shape (6,)
             ``(f, m)`` (N, N·m) about the base origin.
-        frame : None, "platform" or (R, p)
+        frame : "base" (or None), "platform" or (R, p)
             The result's reference point and axes, as for :meth:`stiffness`: the
-            base origin and axes (None), the platform frame, or origin ``p`` (base
-            coordinates, m) with ``r' = R (r − p)``.
+            base origin and axes (the default), the platform frame, or origin ``p``
+            (base coordinates, m) with ``r' = R (r − p)``.
 
         Raises
         ------
@@ -478,7 +479,7 @@ class Hexapod:
                                True, float(c))
 
     # ---------------------------------------------------------------- maps
-    def map(self, positions, rotations=None, frame: str | None = "platform") -> pd.DataFrame:
+    def map(self, positions, rotations=None) -> pd.DataFrame:
         """Stiffness indices over every combination of positions × orientations (vectorised).
 
         Parameters
@@ -487,8 +488,6 @@ class Hexapod:
             Platform origins in the base frame (m).
         rotations : array_like, shape (R, 3), optional
             Platform orientations as rotation vectors (rad); default the identity.
-        frame : "platform" or None
-            Reference of the indices: the platform origin (default) or the base origin.
 
         Returns
         -------
@@ -496,10 +495,11 @@ class Hexapod:
             One row per pose: ``x, y, z`` (m), ``rx, ry, rz`` (rad), ``kt_min``,
             ``kt_max`` (N/m, eigenvalues of the translational block), ``cr_max``
             (rad/(N·m), largest rotational compliance eigenvalue), ``cond_P`` and
-            ``singular`` (cond_P above the limit).
+            ``singular`` (cond_P above the limit).  Every index is the same about any
+            reference point and in any axes: the translational block of K and the
+            rotational block of C do not change when the reference point moves, and a
+            rotation of the axes keeps their eigenvalues.
         """
-        if not (frame is None or isinstance(frame, str) and frame == "platform"):
-            raise StiffnessError(f"frame: expected None or 'platform', got {frame!r}")
         pos = points(positions, "positions")
         rv = np.zeros((1, 3)) if rotations is None else points(rotations, "rotations")
         Rm = exp_so3(rv)
@@ -509,7 +509,7 @@ class Hexapod:
         T[..., :3, 3] = pos[:, None]
         T[..., 3, 3] = 1
         T = T.reshape(B, 4, 4)
-        K, c = self.stiffness_batch(T, frame)
+        K, c = self.stiffness_batch(T, "platform")
         kt = np.linalg.eigvalsh(K[:, :3, :3])
         sing = c > self.singular_cond
         cr = np.full((B, 3), np.nan)
@@ -524,7 +524,7 @@ class Hexapod:
             "kt_min": kt[:, 0], "kt_max": kt[:, 2], "cr_max": cr[:, 2], "cond_P": c,
             "singular": sing,
         })
-        df.attrs["reference"] = "platform origin" if frame == "platform" else "base origin"
+        df.attrs["reference"] = "platform origin (the indices are the same about any point)"
         df.attrs["units"] = {"kt_min": "N/m", "kt_max": "N/m", "cr_max": "rad/(N·m)"}
         return df
 

@@ -194,11 +194,12 @@ def _roles(mech, springs, locked, link_springs=None):
 def _frame(frame, link_T):
     """(R (B, 3, 3), p (B, 3)) of the result's frame."""
     B = link_T.shape[0]
-    if frame is None:
+    if frame is None or isinstance(frame, str) and frame == "base":
         return np.broadcast_to(np.eye(3), (B, 3, 3)), np.zeros((B, 3))
     if isinstance(frame, str):
         if frame != "platform":
-            raise StiffnessError(f"frame: expected None, 'platform' or (R, p), got {frame!r}")
+            raise StiffnessError(f"frame: expected 'base' (or None), 'platform' or (R, p), got "
+                                 f"{frame!r}")
         return np.swapaxes(link_T[:, :3, :3], 1, 2), link_T[:, :3, 3]
     try:
         R, p = frame
@@ -248,9 +249,9 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict | None = None,
         the assembly pose; :func:`beam_stiffness` gives K for a beam.  A beam joining
         ``joint`` to the link's other joint is a cantilever clamped at ``joint``: take
         ``frame`` at the other end, x along the beam away from ``joint``.
-    frame : None, "platform" or (R, p)
-        The result's reference point and axes: the world origin and axes (None), the
-        platform link's frame, or origin ``p`` (world coordinates, m) with
+    frame : "base" (or None), "platform" or (R, p)
+        The result's reference point and axes: the ground's (world) origin and axes (the
+        default), the platform link's frame, or origin ``p`` (world coordinates, m) with
         ``r' = R (r − p)``.
 
     Returns

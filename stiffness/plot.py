@@ -42,7 +42,7 @@ def plot_map(df, index: str = "kt_min", x: str = "x", y: str = "y", path=None, *
     fig.colorbar(m, ax=ax, label=f"{index} ({unit})" if unit else index)
     ax.set_xlabel(f"{x} (m)")
     ax.set_ylabel(f"{y} (m)")
-    ax.set_title(f"{index} about the {df.attrs.get('reference', 'reference point')}")
+    ax.set_title(index)
     if path is not None:
         from .report import _save_figure
         _save_figure(fig, path)

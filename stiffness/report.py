@@ -120,7 +120,7 @@ def report(hexapod, pose, *, frame=None, wrench=None, positions=None, rotations=
         csv["leg_forces.csv"] = pd.DataFrame({"leg": np.arange(1, tau.size + 1), "force_N": tau})
     if positions is not None:
         mp = hexapod.map(positions, rotations)
-        lines += ["## Map", "", f"{len(mp)} poses, indices about the {mp.attrs['reference']}.", "",
+        lines += ["## Map", "", f"{len(mp)} poses (the indices do not depend on the reference point).", "",
                   "| index | min | max |", "|---|---|---|"]
         for col in ["kt_min", "kt_max", "cr_max", "cond_P"]:
             lines.append(f"| {col} ({mp.attrs['units'].get(col, '-')}) | "

@@ -248,17 +248,35 @@ def test_map_vectorised_matches_single_poses_and_flags_singular():
     assert sing.cr_max.isna().all() and df[~df.singular].cr_max.notna().all()
 
 
-def test_convex_design_beats_uniform_allocation():
+@pytest.mark.parametrize("criterion", ["whole", "translational"])
+def test_convex_design_beats_uniform_and_random_allocations(criterion):
     hx = general_hexapod(np.ones(6))
-    poses = [pose(rv, t) for rv, t in [([0, 0, 0], [0, 0, 0.5]), ([0.3, 0, 0], [0.1, 0, 0.6]),
-                                       ([0, -0.3, 0.2], [0, 0.1, 0.45])]]
+    poses = np.array([pose(rv, t) for rv, t in [([0, 0, 0], [0, 0, 0.5]),
+                                                ([0.3, 0, 0], [0.1, 0, 0.6]),
+                                                ([0, -0.3, 0.2], [0, 0.1, 0.45])]])
     budget = 6e7
-    res = design_leg_stiffness(hx, poses, budget)
-    _, u = hx.legs(np.array(poses))
-    uniform = np.linalg.eigvalsh(np.einsum("i,bij,bik->bjk", np.full(6, budget / 6), u, u))[:, 0]
+    res = design_leg_stiffness(hx, poses, budget, criterion=criterion)
+
+    P = hx.leg_matrix(poses)                       # (B, 6, 6) about the base origin
+
+    def worst(k):                                  # the criterion, from K = P diag(k) Pᵀ
+        K = np.einsum("bin,n,bjn->bij", P, k, P)
+        if criterion == "translational":
+            return np.linalg.eigvalsh(K[:, :3, :3])[:, 0].min()
+        c = poses[:, :3, :3] @ hx.platform.mean(0) + poses[:, :3, 3]     # the centroid
+        Ks = np.array([transform_stiffness(K[b], np.eye(3), c[b]) for b in range(len(c))])
+        D = np.diag(np.r_[np.ones(3), np.full(3, 1 / hx.radius)])       # moments / radius
+        return np.linalg.eigvalsh(D @ Ks @ D)[:, 0].min()
+
     assert res.status == "optimal" and res.k.sum() <= budget * (1 + 1e-6)
-    assert res.verified > uniform.min() * 1.001
+    assert abs(worst(res.k) - res.verified) < 1e-6 * res.verified
     assert abs(res.verified - res.objective) / res.objective < 1e-4
+    assert res.verified > worst(np.full(6, budget / 6)) * 1.001
+    rng = np.random.default_rng(5)
+    trials = rng.dirichlet(np.ones(6), 200) * budget
+    assert max(worst(k) for k in trials) <= res.verified * (1 + 1e-4)
+    if criterion == "whole":                       # no leg is left without stiffness
+        assert res.k.min() > 0.01 * budget / 6
 
 
 def test_report_markdown_and_csv(tmp_path):
@@ -367,3 +385,19 @@ def test_reprs_are_short_and_carry_units():
     assert f"{kt[0]:.4g} … {kt[-1]:.4g} N/m" in repr(one) and "\n" not in repr(one)
     batch = hx.stiffness(np.stack([T0] * 73))
     assert "73 poses" in repr(batch) and len(repr(batch)) < 100
+
+
+def test_base_frame_by_name_and_map_indices_about_any_point():
+    hx = general_hexapod()
+    T0 = pose([0.05, -0.1, 0.15], [0.02, 0.01, 0.7])
+    assert np.array_equal(hx.stiffness(T0, frame="base").K, hx.stiffness(T0).K)
+    W0 = np.r_[300.0, -200, -5000, 400, 250, -100]
+    assert np.array_equal(hx.loaded_stiffness(T0, W0, frame="base").K,
+                          hx.loaded_stiffness(T0, W0).K)
+    row = hx.map(T0[None, :3, 3], [[0.05, -0.1, 0.15]]).iloc[0]
+    for frame in ("base", "platform", rand_frame()):
+        K = hx.stiffness(T0, frame=frame).K
+        C = np.linalg.inv(K)
+        assert np.isclose(row.kt_min, np.linalg.eigvalsh(K[:3, :3])[0], rtol=1e-9)
+        assert np.isclose(row.kt_max, np.linalg.eigvalsh(K[:3, :3])[-1], rtol=1e-9)
+        assert np.isclose(row.cr_max, np.linalg.eigvalsh(C[3:, 3:])[-1], rtol=1e-9)

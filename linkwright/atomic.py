@@ -18,8 +18,8 @@ import sys
 from pathlib import Path
 from typing import Callable
 
-__all__ = ["TEMP_PREFIX", "make_temp_dir", "make_parents", "remove_empty", "remove_tree",
-           "swap_in"]
+__all__ = ["TEMP_PREFIX", "write_new_file", "make_temp_dir", "make_parents", "remove_empty",
+           "remove_tree", "swap_in"]
 
 #: name prefix of every temporary folder linkwright makes beside an output folder
 TEMP_PREFIX = ".linkwright-"
@@ -27,6 +27,28 @@ TEMP_PREFIX = ".linkwright-"
 _RENAME_EXCHANGE = 2
 _AT_FDCWD = -100
 _renameat2_fn = None          # None: not looked up yet; False: unavailable
+
+
+def write_new_file(path, data: bytes) -> None:
+    """Write a new file at once: into a temporary file beside it, then hard-linked into
+    place, which fails if ``path`` exists (``FileExistsError``), so an existing file is
+    never overwritten and ``path`` never holds part of ``data``.  Where hard links are not
+    supported, the file is created exclusively and written."""
+    path = Path(path)
+    tmp = path.parent / f"{TEMP_PREFIX}{secrets.token_hex(6)}.tmp"
+    with open(tmp, "xb") as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    try:
+        os.link(tmp, path)
+    except FileExistsError:
+        raise
+    except OSError:                  # no hard links here: exclusive create instead
+        with open(path, "xb") as f:
+            f.write(data)
+    finally:
+        os.unlink(tmp)
 
 
 def make_temp_dir(parent: Path) -> Path:

@@ -1,18 +1,25 @@
 """The ``linkwright`` command: design studies from TOML files, reports, demo and benchmarks.
 
+Study files are checked against the command's schema (:mod:`linkwright.schema`) before
+anything runs; ``linkwright run FILE`` takes the command from ``[study].command``,
+``linkwright schema CMD`` prints the reference and ``linkwright init CMD`` writes a starter.
+
 Exit status: 0 success; 2 bad input (a study file: the message names the file and the key;
-or an output folder that may not be replaced); 1 a failure while running (numerical
-trouble such as a singular matrix, or the disk: the message says what failed); 130 and
-143 interrupted by SIGINT and SIGTERM.  A run's outputs are committed as one set: written
+degenerate input such as a singular pose; or an output folder that cannot be made or
+replaced, found before any computation); 1 a failure while running (numerical trouble such
+as a singular matrix, or the disk: the message says what failed); 130 and 143 interrupted
+by SIGINT and SIGTERM.  A run's outputs are committed as one set: written
 into a temporary folder beside the output folder and swapped in at once, so the folder
 holds either the previous set or the new one, never a mix.
 """
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
 import sys
+import warnings
 from pathlib import Path
 
 from . import __version__
@@ -38,12 +45,28 @@ def _parser():
              "stiffness": "hexapod geometry, pose, frame, load → stiffness report",
              "approx": "1-DOF mechanism or closed form → piecewise-linear analog tables",
              "analyze": "mechanism and input range → sweep table, point paths, drive forces"}
+    helps["run"] = "a study file of any kind: the command is read from its [study].command"
     for name, text in helps.items():
-        s = sub.add_parser(name, help=text)
+        s = sub.add_parser(name, help=text, description=text + ". The study file is checked "
+                           "against the schema first (`linkwright schema " +
+                           (name if name != "run" else "CMD") + "`): an unknown key, a wrong "
+                           "type or a value out of range exits 2 naming the file and the key.")
         s.add_argument("study", help="the study file (TOML)")
         s.add_argument("-o", "--out", help="output folder (default: linkwright-out/<study>)")
         s.add_argument("--quiet", action="store_true", help="no progress on stderr")
         s.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
+    sc = sub.add_parser("schema", help="print the reference of a study kind: every key "
+                                       "with its type, unit, default, meaning and example",
+                        description="Print the study-file reference (Markdown) of one study "
+                                    "kind, or of all with no argument; docs/study-files.md is "
+                                    "the same text.")
+    sc.add_argument("kind", nargs="?", choices=STUDY_COMMANDS, help="the study kind")
+    it = sub.add_parser("init", help="write a commented starter study that runs as it is",
+                        description="Write a commented starter study of one kind (every key "
+                                    "explained, optional keys commented out). It refuses to "
+                                    "overwrite a file.")
+    it.add_argument("kind", choices=STUDY_COMMANDS, help="the study kind")
+    it.add_argument("-o", "--out", help="the new file (default: KIND.toml; - for stdout)")
     d = sub.add_parser("demo", help="run every shipped example study into an output folder")
     d.add_argument("-o", "--out", default="linkwright-demo", help="output folder")
     d.add_argument("--examples", help="folder of study files (default: the studies shipped "
@@ -56,7 +79,7 @@ def _parser():
                                        "(or empty) folder")
     e.add_argument("--json", action="store_true")
     b = sub.add_parser("bench", help="speed-against-error tables of all modules")
-    b.add_argument("modules", nargs="*", help="closure, synthesis, stiffness, approx, dynamics")
+    b.add_argument("modules", nargs="*", help="closure, synthesis, stiffness, mechanism, approx, dynamics")
     b.add_argument("--quick", action="store_true", help="smaller problem sizes")
     b.add_argument("-o", "--out", help="also write the tables to OUT/bench.md")
     return p
@@ -125,23 +148,32 @@ def _dispatch(args, state: dict) -> int:
 
     what = args.command + (f" {args.study}" if getattr(args, "study", None) else "")
     try:
-        if args.command in STUDY_COMMANDS:
-            from .study import Study
-            study = Study(args.study)
+        if args.command in STUDY_COMMANDS or args.command == "run":
+            from .study import load_study
+            study = load_study(args.study, None if args.command == "run" else args.command)
             out = state["out"] = Outputs(args.out or Path("linkwright-out") / Path(args.study).stem,
-                                         args.command)
+                                         study.command)
             out.check()
-            summary = _commands()[args.command](study, out, Progress(args.quiet))
+            with one_line_warnings(args.study):
+                summary = _commands()[study.command](study, out, Progress(args.quiet))
             written = out.commit()
             summary["files"] = [str(p) for p in written]
+            args.command = study.command
         elif args.command == "demo":
             from .cmd_demo import run_demo
             out = state["out"] = Outputs(args.out, "demo")
             out.check()
-            summary = run_demo(args.examples, out, _commands(), Progress(args.quiet))
+            with one_line_warnings("demo"):
+                summary = run_demo(args.examples, out, _commands(), Progress(args.quiet))
             out.commit()
         elif args.command == "examples":
             return _examples(args, state)
+        elif args.command == "schema":
+            from .schema import reference, reference_markdown
+            print(reference(args.kind, level=1) if args.kind else reference_markdown(), end="")
+            return 0
+        elif args.command == "init":
+            return _init(args)
         else:
             return _bench(args, state)
     except (StudyError, OutputFolderError) as e:
@@ -158,6 +190,45 @@ def _dispatch(args, state: dict) -> int:
     elif not args.quiet:
         print(f"linkwright {args.command}: " + ", ".join(
             f"{k}={v}" for k, v in summary.items() if k not in ("command", "files")))
+    return 0
+
+
+@contextlib.contextmanager
+def one_line_warnings(where):
+    """Python warnings raised while a study runs, printed as one line each on stderr
+    (``linkwright: warning: WHERE: message``), never with their source lines."""
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("default")
+        try:
+            yield
+        finally:
+            seen = set()
+            for w in caught:
+                text = " ".join(str(w.message).split())
+                if text not in seen:
+                    seen.add(text)
+                    print(f"linkwright: warning: {where}: {text}", file=sys.stderr, flush=True)
+
+
+def _init(args) -> int:
+    from .atomic import write_new_file
+    from .schema import starter
+    text = starter(args.kind)
+    if args.out == "-":
+        print(text, end="")
+        return 0
+    path = Path(args.out or f"{args.kind}.toml")
+    try:
+        write_new_file(path, text.encode("utf-8"))
+    except FileExistsError:
+        print(f"linkwright: error: {path}: exists; linkwright init never overwrites a file: "
+              "give another name with -o", file=sys.stderr)
+        return 2
+    except OSError as e:
+        print(f"linkwright: error: {path}: cannot write it: {e.strerror or e}",
+              file=sys.stderr)
+        return 2
+    print(f"linkwright init: wrote {path}; edit it, then run: linkwright run {path}")
     return 0
 
 

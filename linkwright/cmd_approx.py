@@ -2,6 +2,8 @@
 knots → the coefficient table, error figures, plots of the analogs and of the drive force."""
 from __future__ import annotations
 
+import re
+
 import numpy as np
 import pandas as pd
 
@@ -40,6 +42,23 @@ def _source(study: Study, sec: Study, a, b):
     return ex.position, ex.velocity, ex.acceleration, "closure engine", None
 
 
+def _fit_key(message: str, a: float, b: float, given: str) -> str:
+    """The ``[approx]`` key a fit error is about: the one it names; for an analog that is
+    not finite at some x (a range beyond the mechanism's reach), ``b`` (``a`` when x is
+    at a); else the knot rule given (delta, n or knots)."""
+    key = message.split(":", 1)[0]
+    if key in ("gamma", "knots", "delta", "n"):
+        return key
+    m = re.search(r"at x = ([-+0-9.eE]+)", message)
+    if key in ("f", "df", "d2f") or m:
+        try:
+            x = float(m.group(1)) if m else b
+        except ValueError:
+            x = b
+        return "a" if abs(x - a) <= 1e-9 * max(1.0, abs(a), abs(b)) else "b"
+    return given
+
+
 def run(study: Study, out: Outputs, progress) -> dict:
     sec = study.section("approx")
     a, b = sec.get("a"), sec.get("b")
@@ -61,9 +80,7 @@ def run(study: Study, out: Outputs, progress) -> dict:
         an = fit(f, df, d2f, a, b, **kw)
         ls = fit_least_squares(f, df, d2f, an.knots, gamma=an.gamma)
     except ApproxError as e:
-        key = str(e).split(":", 1)[0]
-        raise sec.error(key if key in ("gamma", "knots", "delta", "n") else given[0],
-                        str(e)) from None
+        raise sec.error(_fit_key(str(e), a, b, given[0]), str(e)) from None
     out.add_csv("coefficients.csv", an.table)
     out.add_csv("coefficients_least_squares.csv", ls.table)
     x = np.linspace(a, b, 301)
@@ -97,6 +114,9 @@ def run(study: Study, out: Outputs, progress) -> dict:
         L = fsec.get("arm", "float", arm if arm is not None else 1.0, low=0.0)
         tau = fsec.get("duration", "float", cylinder.TAU, low=1e-9)
         stroke = fsec.get("stroke", "float", b - a)
+        if not 0 < stroke <= (b - a) * (1 + 1e-12):
+            raise fsec.error("stroke", f"expected 0 < stroke ≤ b − a = {b - a:g} (m): the "
+                                       f"drive law moves from a by the stroke, got {stroke:g}")
         t = np.linspace(0, tau, 401)
         q, qd, qdd = cylinder.drive_law(t, tau, stroke)
         q = a + q

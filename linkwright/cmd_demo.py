@@ -7,7 +7,7 @@ from pathlib import Path
 
 from . import examples
 from .output import Outputs
-from .study import Study, StudyError
+from .study import StudyError, load_study
 
 __all__ = ["run_demo", "find_examples"]
 
@@ -52,11 +52,10 @@ def run_demo(folder, out, commands: dict, progress) -> dict:
         out.check()
     ex = find_examples(folder)
     rows = []
-    for path in examples.studies(ex):
-        study = Study(path)
-        meta = study.section("study")
-        cmd = meta.get("command", "str", choices=tuple(commands))
-        title = meta.get("title", "str", path.stem)
+    studies = [load_study(path) for path in examples.studies(ex)]   # all checked first
+    for path, study in zip(examples.studies(ex), studies):
+        cmd = study.command
+        title = study.section("study").get("title", "str", path.stem)
         progress(f"{path.name}: {cmd}")
         sub = Outputs(out.folder / path.stem, cmd)
         summary = commands[cmd](study, sub, progress)

@@ -1,15 +1,18 @@
 """``linkwright stiffness``: hexapod geometry, pose, frame and load → the stiffness report."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 
 from closure import exp_so3
-from stiffness import Hexapod, StiffnessError, stiffness_indices
+from stiffness import (Hexapod, SingularPoseError, SingularPoseWarning, StiffnessError,
+                       stiffness_indices)
 from stiffness.report import _fmt_value
 
 from .output import Outputs, Report
-from .study import Study
+from .study import Study, StudyError
 
 
 def _pose(sec):
@@ -33,18 +36,64 @@ def _axis(sec, key):
     return np.linspace(v[0], v[1], int(v[2]))
 
 
+def _hexapod_key(message: str) -> str:
+    """The key of ``[hexapod]`` a :class:`StiffnessError` message is about."""
+    head = message.split(":", 1)[0].strip()
+    return head if head in ("base_points", "platform_points", "leg_stiffness") else ""
+
+
+def degenerate_legs(hx: Hexapod, T) -> list[int]:
+    """The legs (1-based) whose Plücker lines are linearly dependent at pose ``T``: those
+    with a share above 1 % in the null space of the leg matrix P (moments scaled by the
+    platform radius, as cond(P) is)."""
+    P = np.array(hx.leg_matrix(T), dtype=float)
+    P[3:] /= getattr(hx, "radius", 1.0) or 1.0
+    _, s, vt = np.linalg.svd(P)
+    if not np.all(np.isfinite(s)) or s[0] == 0:
+        return list(range(1, P.shape[1] + 1))
+    null = vt[s <= s[0] / hx.singular_cond] if np.any(s <= s[0] / hx.singular_cond) else vt[-1:]
+    share = (null ** 2).sum(axis=0)
+    return [int(i) + 1 for i in np.flatnonzero(share > 0.01)]
+
+
+def _singular(study: Study, hx: Hexapod, T, cond) -> StudyError:
+    legs = degenerate_legs(hx, T)
+    which = ("legs " + ", ".join(map(str, legs)) + " are") if len(legs) > 1 else \
+        (f"leg {legs[0]} is" if legs else "the legs are")
+    c = "inf" if not np.isfinite(cond) else f"{float(cond):.3g}"
+    return study.error("pose", f"pose is singular (cond(P) = {c}): {which} degenerate "
+                               "(linearly dependent leg lines); move or turn the platform")
+
+
 def run(study: Study, out: Outputs, progress) -> dict:
     h = study.section("hexapod")
     k = h.get("leg_stiffness", "vec" if isinstance(h.data.get("leg_stiffness"), list) else "float")
     try:
         hx = Hexapod(h.get("base_points", "points"), h.get("platform_points", "points"), k)
     except StiffnessError as e:
-        raise h.error("", str(e)) from None
+        key = _hexapod_key(str(e))
+        raise h.error(key, str(e).split(":", 1)[1].strip() if key else str(e)) from None
     T = _pose(study.section("pose"))
+    try:
+        return _report(study, out, progress, hx, T)
+    except SingularPoseError:     # K or P singular past the package's limits: bad input
+        raise _singular(study, hx, T, float(hx.cond_P(T))) from None
+
+
+def _report(study: Study, out: Outputs, progress, hx: Hexapod, T) -> dict:
     rsec = study.section("report", required=False)
     frame = rsec.get("frame", "str", "platform", choices=("platform", "base")) if rsec else "platform"
     wrench = rsec.get("wrench", "vec", None, length=6) if rsec else None
-    res = hx.stiffness(T, frame=None if frame == "base" else "platform")
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", SingularPoseWarning)   # decided just below
+            res = hx.stiffness(T, frame=None if frame == "base" else "platform")
+    except SingularPoseError:
+        raise
+    except StiffnessError as e:
+        raise study.error("pose", str(e)) from None
+    if not res.cond_P <= hx.singular_cond:
+        raise _singular(study, hx, T, res.cond_P)
     K = res.K
     cols = ["dx", "dy", "dz", "tx", "ty", "tz"]
     out.add_csv("stiffness.csv", pd.DataFrame(K, columns=cols).assign(
@@ -65,8 +114,12 @@ def run(study: Study, out: Outputs, progress) -> dict:
     summary = {"command": "stiffness", "frame": frame, "cond_P": float(res.cond_P),
                "kt_min": float(kt[0]), "kt_max": float(kt[-1])}
     if wrench is not None:
-        tau = hx.leg_forces(T, wrench)
-        d = hx.deflection(T, wrench)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", SingularPoseWarning)
+            tau = hx.leg_forces(T, wrench)
+            d = hx.deflection(T, wrench)
+        for w in sorted({str(w.message) for w in caught}):
+            study.warn("pose", w)
         lf = pd.DataFrame({"leg": np.arange(1, tau.size + 1), "force_N": tau})
         out.add_csv("leg_forces.csv", lf)
         rep.heading("Load case (wrench about the base origin)")

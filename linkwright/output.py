@@ -34,8 +34,9 @@ def have_matplotlib() -> bool:
 
 
 class OutputFolderError(ValueError):
-    """The output folder cannot take the outputs: it is a file, the current folder, or it
-    holds files linkwright did not write.  Nothing was written."""
+    """The output folder cannot take the outputs: it is a file (or a file is in its path),
+    the current folder, read-only, or it holds files linkwright did not write.  Nothing
+    was written."""
 
     def __init__(self, folder, message: str):
         self.folder = str(folder)
@@ -138,8 +139,9 @@ class Outputs:
         return Path(os.path.realpath(self.folder))
 
     def check(self) -> None:
-        """Raise :class:`OutputFolderError` (or :class:`OutputWriteError` for a read-only
-        folder) if the output folder cannot be replaced; call it before a long run."""
+        """Raise :class:`OutputFolderError` if the output folder cannot be made or replaced
+        (a file in the way, a read-only folder, files linkwright did not write); call it
+        before a long run."""
         t = self._target()
         cwd = Path(os.path.realpath(os.getcwd()))
         if t == cwd or t in cwd.parents:
@@ -147,13 +149,30 @@ class Outputs:
                                     "outputs replace their folder whole: give a subfolder")
         self._check_replaceable(t)
 
+    def _check_creatable(self, t: Path) -> None:
+        """The nearest existing ancestor of a new output folder must be a writable folder."""
+        p = t.parent
+        while not os.path.lexists(p) and p.parent != p:
+            p = p.parent
+        if not os.path.isdir(p):
+            raise OutputFolderError(self.folder, f"cannot be made: {p} is a file, not a folder")
+        if not os.access(p, os.W_OK | os.X_OK):
+            raise OutputFolderError(self.folder, f"cannot be made: {p} is read-only; nothing "
+                                    "was changed")
+
     def _check_replaceable(self, t: Path) -> None:
         try:
             entries, allowed, writable = _listing(t)
         except FileNotFoundError:
+            self._check_creatable(t)
             return
         except NotADirectoryError:
+            if not os.path.lexists(t):
+                self._check_creatable(t)
             raise OutputFolderError(self.folder, "exists and is not a folder") from None
+        if not os.access(t.parent, os.W_OK | os.X_OK):
+            raise OutputFolderError(self.folder, f"cannot be replaced: {t.parent} is "
+                                    "read-only; nothing was changed")
         if not entries:
             return
         if not self.owned:
@@ -167,8 +186,8 @@ class Outputs:
             raise OutputFolderError(self.folder, "holds files that are not linkwright outputs "
                                     f"({_names(extra)}); move them away or give another folder")
         if not writable:
-            raise OutputWriteError(f"could not write the outputs to {self.folder}: the folder "
-                                   "is read-only; nothing was changed", errno.EACCES)
+            raise OutputFolderError(self.folder, "is read-only: the outputs cannot replace "
+                                    "it; nothing was changed")
 
     def _markers(self) -> dict[str, bytes]:
         out = {}

@@ -106,7 +106,7 @@ def test_disk_full_exits_1_and_keeps_the_old_set(tmp_path, capsys, monkeypatch):
     assert tree(out) == before and temporaries(tmp_path) == []
 
 
-def test_a_read_only_output_folder_exits_1_before_running(tmp_path, capsys, monkeypatch):
+def test_a_read_only_output_folder_exits_2_before_running(tmp_path, capsys, monkeypatch):
     out = tmp_path / "out"
     commit(out, {"old.txt": "old"})
     before = tree(out)
@@ -118,18 +118,33 @@ def test_a_read_only_output_folder_exits_1_before_running(tmp_path, capsys, monk
         return real(path, mode, *a, **k)
     monkeypatch.setattr(os, "access", access)
     code, _, err = run(["synth", EX / "seed001_rrr.toml", "-o", out, "--quiet"], capsys)
-    assert code == 1 and "read-only" in err
+    assert code == 2 and "read-only" in err and "nothing was changed" in err
     assert tree(out) == before and temporaries(tmp_path) == []
 
 
-@pytest.mark.skipif(os.name != "posix" or os.geteuid() == 0, reason="root ignores permissions")
-def test_a_read_only_parent_folder_exits_1(tmp_path, capsys):
-    (tmp_path / "ro").mkdir()
-    os.chmod(tmp_path / "ro", 0o555)
+@pytest.mark.skipif(os.name != "posix", reason="POSIX permissions")
+def test_a_read_only_parent_folder_exits_2(tmp_path, capsys, monkeypatch):
+    ro = tmp_path / "ro"
+    ro.mkdir()
+    os.chmod(ro, 0o555)
+    if os.geteuid() == 0:                       # root writes anywhere: the refusal is simulated
+        real_access, real_mkdir = os.access, os.mkdir
+
+        def access(path, mode, *a, **k):
+            if mode & os.W_OK and pathlib.Path(path) == ro:
+                return False
+            return real_access(path, mode, *a, **k)
+
+        def mkdir(path, *a, **k):
+            if pathlib.Path(path).parent == ro:
+                raise PermissionError(13, "Permission denied", str(path))
+            return real_mkdir(path, *a, **k)
+        monkeypatch.setattr(os, "access", access)
+        monkeypatch.setattr(os, "mkdir", mkdir)
     try:
         code, _, err = run(["synth", EX / "seed001_rrr.toml", "-o", tmp_path / "ro" / "out"],
                            capsys)
-        assert code == 1 and "nothing was changed" in err
+        assert code == 2 and "nothing was changed" in err
         assert list((tmp_path / "ro").iterdir()) == []
     finally:
         os.chmod(tmp_path / "ro", 0o755)

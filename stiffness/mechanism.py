@@ -27,7 +27,7 @@ import pandas as pd
 
 from .errors import SingularPoseError, StiffnessError
 from .sixvector import twist_transform
-from closure.frames import adjoint
+from closure.frames import adjoint, skew
 
 from .validate import as_array, rotation, transform, vec3
 
@@ -72,6 +72,10 @@ class MechanismStiffness:
         coordinates (1 for an open chain): large near a singular pose.
     elastic, locked, passive : list of str
         Labels of the coordinates in each role.
+    loaded : bool
+        True: the stiffness under the load given to :func:`of_mechanism` (the
+        derivative of the wrench holding the link, about the reference point carried by
+        it; in general not symmetric).
     """
 
     K: np.ndarray
@@ -83,13 +87,15 @@ class MechanismStiffness:
     elastic: list
     locked: list
     passive: list
+    loaded: bool = False
 
     def __repr__(self) -> str:
         B = self.K.shape[0]
         kt = np.linalg.eigvalsh(0.5 * (self.K[:, :3, :3] + np.swapaxes(self.K[:, :3, :3], 1, 2)))
         pos = kt[kt > 0]
         span = f"{pos.min():.4g} … {pos.max():.4g} N/m" if pos.size else "none"
-        return (f"MechanismStiffness({B} pose{'s' if B != 1 else ''}, translational stiffness "
+        return (f"MechanismStiffness({'loaded, ' if self.loaded else ''}{B} "
+                f"pose{'s' if B != 1 else ''}, translational stiffness "
                 f"{span}, rigid directions {int(self.rigid.min())}…{int(self.rigid.max())}, "
                 f"{len(self.elastic)} elastic / {len(self.locked)} locked / {len(self.passive)} "
                 "passive coordinates)")
@@ -221,7 +227,7 @@ def _by_rank(values, fn):
 
 
 def of_mechanism(mechanism, pose, *, platform: str, springs: dict | None = None, locked=None,
-                 link_springs=None, frame=None) -> MechanismStiffness:
+                 link_springs=None, frame=None, wrench=None) -> MechanismStiffness:
     """Cartesian stiffness of the link ``platform`` of a mechanism at solved poses.
 
     Parameters
@@ -253,6 +259,17 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict | None = None,
         The result's reference point and axes: the ground's (world) origin and axes (the
         default), the platform link's frame, or origin ``p`` (world coordinates, m) with
         ``r' = R (r − p)``.
+    wrench : array_like, shape (6,), optional
+        An external load ``(f, m)`` (N, N·m) on the platform, about the world origin:
+        then the loaded stiffness, the derivative of the wrench holding the platform
+        displaced by ``Δ`` about the reference point it carries, at ``pose`` taken as the
+        loaded equilibrium.  The springs carry the load as the linear elastic solution
+        at this pose distributes it (exactly the spring forces of the equilibrium where
+        the springs are statically determinate, as in a hexapod or a 3-RPS), the loops
+        by the least-norm loop wrenches (no self-stress); moving the mechanism turns the
+        joints that carry these forces, which adds the geometric term (non-symmetric
+        where a moment acts about the reference point).  Joint springs only (not with
+        ``link_springs``).
 
     Returns
     -------
@@ -281,9 +298,18 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict | None = None,
                                 f"{int(np.atleast_1d(pose.status)[bad[0]])}); its stiffness is "
                                 "undefined")
     roles = _roles(mechanism, springs, locked, link_springs)
+    if wrench is not None:
+        wrench = as_array(wrench, "wrench", what="a wrench (f, m) of shape (6,) (N, N·m)")
+        if wrench.shape != (6,):
+            raise StiffnessError(f"wrench: expected a wrench (f, m) of shape (6,) (N, N·m), got "
+                                 f"shape {wrench.shape}")
+        if roles[4]:
+            raise StiffnessError("wrench: the loaded stiffness takes joint springs only; "
+                                 "link_springs are not supported under load")
     ks = pose.kinematics()
     R, p = _frame(frame, ks["link"][:, mechanism.tree.link_index[platform]])
-    res, free = _stiffness(mechanism, ks, platform, roles, R, p)
+    res, free = _stiffness(mechanism, ks, platform, roles, R, p, wrench)
+    res.loaded = wrench is not None
     if free.any():
         b = int(np.flatnonzero(free)[0])
         raise SingularPoseError(
@@ -340,23 +366,26 @@ def _columns(mechanism, ks, platform, roles):
             np.concatenate(scale), Kall)
 
 
-def _stiffness(mechanism, ks, platform, roles, R, p):
+def _stiffness(mechanism, ks, platform, roles, R, p, wrench=None):
     """The result for one batch of kinematic states in the frames ``R (B, 3, 3)``, ``p (B,
-    3)``, and which poses have a free motion (their K, C are left zero there)."""
+    3)``, and which poses have a free motion (their K, C are left zero there).  With a
+    ``wrench`` (6,) about the world origin, the loaded stiffness."""
     Kq, elastic, lock, passive, links = roles
     t = mechanism.tree
     W, loop, along, colf, Kc = _columns(mechanism, ks, platform, roles)
     B, nf = W.shape[:2]
     L = t.scale
     Kq_s = Kc * colf[:, None] * colf                      # energy per dimensionless motion
-    A = (along[:, None] * W).transpose(0, 2, 1) * colf    # (B, 6, nf): Δ about the world origin
-    A = twist_transform(R, p) @ A                         # Δ about p, in the frame's axes
+    A0 = (along[:, None] * W).transpose(0, 2, 1) * colf   # (B, 6, nf): Δ about the world origin
+    A = twist_transform(R, p) @ A0                        # Δ about p, in the frame's axes
+    free = np.sort(np.r_[elastic, passive].astype(int))
     if t.chords:
         Jw = np.einsum("kc,bcs->bksc", loop, W).reshape(B, -1, nf)
         J = mechanism._scaled_rows(Jw) * colf             # dimensionless, about the centre
-        _, s, Vt = np.linalg.svd(J, full_matrices=True)
+        UJ, s, Vt = np.linalg.svd(J, full_matrices=True)
         rank = np.sum(s > RANK_RTOL * np.maximum(s[:, :1], 1e-300), axis=1)
     else:
+        UJ = np.zeros((B, 0, 0))
         Vt = np.broadcast_to(np.eye(nf), (B, nf, nf))
         s = np.ones((B, 1))
         rank = np.zeros(B, int)
@@ -394,12 +423,89 @@ def _stiffness(mechanism, ks, platform, roles, R, p):
             Qi = U[g, :, :nc] * unit[:, None]
             Cq = np.swapaxes(Qi, 1, 2) @ C[idx[g]] @ Qi
             K[idx[g]] = Qi @ np.linalg.inv(Cq) @ np.swapaxes(Qi, 1, 2)
+            if wrench is None:
+                continue
+            for ns in np.unique(stored[g].sum(1)):
+                h = g[stored[g].sum(1) == ns]
+                keep = np.argsort(~stored[h], axis=1, kind="stable")[:, :ns]   # stored modes
+                Zr = Z[h] @ np.take_along_axis(V[h], keep[:, None, :], 2)
+                lam_r = np.take_along_axis(lam[h], keep, 1)
+                j = idx[h]
+                H6 = _axes6(R[j])                         # world axes → the frame's
+                Kl, Cl = _loaded(mechanism, ks, j, free, Zr, lam_r, A0[j], colf, loop, along,
+                                 Kq_s, (UJ[j], s[j], Vt[j], rank[j]), wrench, p[j],
+                                 np.swapaxes(H6, 1, 2) @ U[h, :, :nc], unit)
+                K[j] = H6 @ Kl @ np.swapaxes(H6, 1, 2)
+                C[j] = H6 @ Cl @ np.swapaxes(H6, 1, 2)
 
     _by_rank(rank, group)
     rigid[free_motion] = 0
     return MechanismStiffness(K, C, rigid, np.array(p, dtype=float), np.array(R, dtype=float),
                               cond, _labels(mechanism, elastic) + [x[4] for x in links],
                               _labels(mechanism, lock), _labels(mechanism, passive)), free_motion
+
+
+def _axes6(R):
+    """``diag(R, R)`` for a batch of rotations ``(b, 3, 3)`` → ``(b, 6, 6)``."""
+    H = np.zeros(R.shape[:-2] + (6, 6))
+    H[..., :3, :3] = H[..., 3:, 3:] = R
+    return H
+
+
+def _loaded(mechanism, ks, idx, free, Zr, lam, A0, colf, loop, along, Kq_s, svd, wrench, p,
+            Uc, unit):
+    """Loaded stiffness and compliance about the carried points ``p`` (world axes) of the
+    poses ``idx``, from their energy-storing modes ``Zr (b, n, r)`` (dimensionless
+    coordinates of the columns ``free``) with energies ``lam (b, r)``.
+
+    The load W (about the world origin) is carried by spring forces ``τ`` (the elastic
+    solution at this pose) and by loop wrenches ``λ`` (``τ − Aᵀ W − Jᵀ λ = 0``,
+    least-norm ``λ``: no self-stress).  Moving along admissible rates v turns every
+    joint's twist column (``Ẇ_c = [V_carrier, W_c]``), so the wrench ``Λ_c = along_c W +
+    Σ_k loop_kc λ_k`` passing through column c adds ``−Σ_c u_c Λ_cᵀ Ẇ_c(v)`` to the
+    energy form ``uᵀ Kq v``; the held wrench about the carried point adds ``[f] δ`` (as
+    for :meth:`Hexapod.loaded_stiffness`).  Returns ``(K, C)`` over the compliant
+    directions ``Uc`` (scaled displacements)."""
+    from closure.kinematics import bracket
+    t = mechanism.tree
+    b, n, r = Zr.shape
+    Wt = np.broadcast_to(wrench, (b, 6))
+    # elastic solution: mode coordinates y = Λ⁻¹ (A0 Zr)ᵀ W, spring forces τ = Kq dq
+    y = np.einsum("bsn,bnr,bs->br", A0, Zr, Wt) / lam
+    tau = np.einsum("nm,bmr,br->bn", Kq_s, Zr, y)
+    rhs = tau - np.einsum("bsn,bs->bn", A0, Wt)           # = Jᵀ λ (dimensionless columns)
+    Lam = along[None, :, None] * Wt[:, None, :]           # (b, n, 6)
+    if t.chords:
+        UJ, sJ, Vt, rank = svd
+        k = int(rank.max())
+        ok = np.arange(k) < rank[:, None]
+        inv_s = np.where(ok, 1 / np.where(ok, sJ[:, :k], 1), 0.0)
+        # J = U diag(s) Vᵀ (rows about the centre): the least-norm λ of Jᵀ λ = rhs
+        lam_sc = np.einsum("bmk,bk,bkn,bn->bm", UJ[:, :, :k], inv_s, Vt[:, :k], rhs)
+        lam_sc = lam_sc.reshape(b, -1, 6)
+        f = lam_sc[..., :3] / t.scale                      # rows were (v + ω × c) / L
+        m = lam_sc[..., 3:] + np.cross(t.centre, f)        # moments back to the world origin
+        Lam = Lam + np.einsum("kc,bks->bcs", loop, np.concatenate([f, m], -1))
+    # rates of every coordinate along each mode (true units)
+    rates = np.zeros((b, r, t.nv))
+    rates[:, :, free] = np.swapaxes(Zr * colf[:, None], 1, 2)
+    S = ks["S"][idx]                                       # (b, nv, 6)
+    Vc = np.einsum("lc,bcs,bjc->bjls", t.path_sign, S, rates)[:, :, ks["carrier"]]
+    for col, dep in enumerate(ks["deps"]):                 # columns moved by their joint's
+        for d in dep:                                      # earlier coordinates (U, C, ...)
+            Vc[:, :, col] += S[:, None, d] * rates[:, :, d, None]
+    Wdot = bracket(Vc, S[:, None])[:, :, free]             # (b, r, n, 6)
+    Hl = -np.einsum("bci,bcs,bjcs->bij", Zr * colf[:, None], Lam, Wdot)
+    Hl += lam[:, :, None] * np.eye(r)
+    M = twist_transform(np.eye(3), p) @ A0 @ Zr            # Δ about p, world axes
+    Cp = M @ np.linalg.solve(Hl, np.swapaxes(M, 1, 2))
+    Qi, Qd = Uc * unit[:, None], Uc / unit[:, None]        # D U_c and D⁻¹ U_c
+    Kp = Qi @ np.linalg.inv(np.swapaxes(Qi, 1, 2) @ Cp @ Qi) @ np.swapaxes(Qi, 1, 2)
+    G = np.zeros((b, 6, 6))
+    G[:, 3:, :3] = skew(Wt[:, :3])                         # m' = m − δ × f adds [f] δ
+    Kc = Kp + Qi @ np.swapaxes(Qd, 1, 2) @ G @ Qd @ np.swapaxes(Qi, 1, 2)
+    Kr = np.swapaxes(Qd, 1, 2) @ Kc @ Qd                   # on the compliant directions
+    return Kc, Qd @ np.linalg.inv(Kr) @ np.swapaxes(Qd, 1, 2)
 
 
 def mechanism_map(mechanism, pose, *, platform: str, springs: dict | None = None, locked=None,

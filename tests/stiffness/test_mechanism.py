@@ -151,6 +151,9 @@ _GOOD = dict(mechanism=_M, pose=_POSE, platform="platform", springs=SPRINGS)
     (dict(locked=["P0"]), "locked"), (dict(locked=["nothing"]), "locked"),
     (dict(frame="tool"), "frame"), (dict(frame=(np.eye(3) * 1.01, np.zeros(3))), "frame R"),
     (dict(frame=(np.eye(3), np.array([0, np.nan, 0]))), "frame p"), (dict(frame=3), "frame"),
+    (dict(wrench=[0, 0, np.nan, 0, 0, 0]), "wrench"), (dict(wrench=[1.0, 2, 3]), "wrench"),
+    (dict(wrench="up"), "wrench"),
+    (dict(wrench=np.zeros(6), link_springs=[("l0", "U0", np.eye(4), np.eye(6))]), "wrench"),
 ])
 def test_bad_arguments_are_named(change, arg):
     with pytest.raises(StiffnessError) as info:
@@ -278,3 +281,86 @@ def test_map_bad_arguments_are_named(change, arg):
     with pytest.raises(StiffnessError) as info:
         mechanism_map(**{**_GOOD, **change})
     assert arg in str(info.value), str(info.value)
+
+
+W_LOAD = np.r_[300.0, -200, -5000, 400, 250, -100]     # N, N·m about the world origin
+
+
+@pytest.mark.parametrize("which", ["base", "platform", "general"])
+def test_loaded_6ups_equals_the_hexapods_loaded_stiffness(which):
+    """The geometric term from the engine's twist brackets and loop wrenches equals the
+    hexapod's closed form (itself checked against finite differences of the equilibrium)."""
+    hx = Hexapod(BASE, PLAT, KLEG)
+    pose = _M.solve(rng.normal(size=(4, 6)) * 0.02)
+    Ts = pose.link_frame("platform") @ T0
+    for i in range(4):
+        if which == "base":
+            f_hx, f_m = None, None
+        elif which == "platform":
+            f_hx = f_m = (Ts[i, :3, :3].T, Ts[i, :3, 3])
+        else:
+            f_hx = f_m = (exp_so3(rng.normal(size=3)), rng.normal(size=3))
+        res = of_mechanism(_M, _M.solve(pose.inputs[i]), platform="platform", springs=SPRINGS,
+                           frame=f_m, wrench=W_LOAD)
+        ref = hx.loaded_stiffness(Ts[i], W_LOAD, frame=f_hx).K
+        assert res.loaded and rel(res.K[0], ref) < 1e-10
+        assert rel(res.C[0], np.linalg.inv(ref)) < 1e-9
+    # the load's geometric term is really there: the unloaded K differs by more than 1e-5
+    assert rel(hx.stiffness(Ts[0]).K, hx.loaded_stiffness(Ts[0], W_LOAD).K) > 1e-5
+
+
+def test_loaded_3rps_against_fd_of_the_loaded_equilibrium():
+    """A 3-RPS with elastic actuators under a load: the equilibrium is solved with the engine
+    (spring forces k (s − s̄) balancing the load's generalized forces, found by Newton on
+    central differences of solved poses), then a small extra wrench is added; the increment
+    of the holding wrench about the carried point must equal K Δ on the compliant
+    directions (rel. 1e-6)."""
+    from closure import log_se3
+    from stiffness import shift_wrench
+    m = _three_legged("RPS")
+    kP = 2e7
+    springs = {f"P{i}": kP for i in range(3)}
+    x_rest = np.array([0.02, -0.03, 0.01])
+    c = m.solve(x_rest).link_frame("platform")[:3, 3] + [0.1, -0.05, 0.0]   # a platform point
+
+    def twist_columns(s, h=1e-6):
+        """d(platform twist about the world origin)/ds, (6, 3), central differences."""
+        T = m.solve(np.r_[s + np.eye(3) * h, s - np.eye(3) * h]).link_frame("platform")
+        D = log_se3(T @ np.linalg.inv(m.solve(s).link_frame("platform")))
+        return (D[:3] - D[3:]).T / (2 * h)
+
+    def equilibrium(W):
+        s = x_rest.copy()
+        for _ in range(8):                       # k (s − s̄) = A(s)ᵀ W, Newton with FD
+            f = kP * (s - x_rest) - twist_columns(s).T @ W
+            Jf = kP * np.eye(3) - np.stack([(twist_columns(s + e).T @ W
+                                             - twist_columns(s - e).T @ W) / 2e-5
+                                            for e in np.eye(3) * 1e-5], 1)
+            s = s - np.linalg.solve(Jf, f)
+        return s
+
+    s0 = equilibrium(W_LOAD)
+    assert np.abs(s0 - x_rest).max() > 1e-5                    # the load deflects the legs
+    T_0 = m.solve(s0).link_frame("platform")
+    res = of_mechanism(m, m.solve(s0), platform="platform", springs=springs, wrench=W_LOAD,
+                       frame=(np.eye(3), c))                    # at the loaded pose
+    unloaded = of_mechanism(m, m.solve(s0), platform="platform", springs=springs,
+                            frame=(np.eye(3), c))
+    assert res.rigid[0] == 3
+    K = res.K[0]
+    eps = 50.0
+    worst_unloaded = 0.0
+    for j in range(6):
+        dW = np.eye(6)[j] * eps
+        Tp = m.solve(equilibrium(W_LOAD + dW)).link_frame("platform")
+        Tm = m.solve(equilibrium(W_LOAD - dW)).link_frame("platform")
+        Dp, Dm = log_se3(Tp @ np.linalg.inv(T_0)), log_se3(Tm @ np.linalg.inv(T_0))
+        V = (Dp - Dm) / 2                        # twist about the origin for +dW (first order)
+        delta = np.r_[V[:3] + np.cross(V[3:], c), V[3:]]          # about the carried point
+        dWc = shift_wrench(c) @ dW + np.r_[0, 0, 0, np.cross(delta[:3], -W_LOAD[:3])]
+        # compare on the compliant directions: the load's part the springs feel
+        err = K @ delta - K @ res.C[0] @ dWc
+        assert np.abs(err).max() < 1e-6 * np.abs(dWc).max(), (j, err)
+        e0 = unloaded.K[0] @ delta - unloaded.K[0] @ unloaded.C[0] @ (shift_wrench(c) @ dW)
+        worst_unloaded = max(worst_unloaded, np.abs(e0).max() / np.abs(dWc).max())
+    assert worst_unloaded > 1e-5                 # without the geometric term: 10x the tolerance

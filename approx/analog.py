@@ -29,7 +29,7 @@ from numpy.polynomial.legendre import leggauss
 from scipy.integrate import quad
 
 __all__ = ["PiecewiseAnalog", "ApproxError", "TransferFunction", "interval_sigma",
-           "sigma_of_intervals", "as_real", "as_points"]
+           "sigma_of_intervals", "as_real", "as_points", "as_knots", "as_count", "as_positive"]
 
 
 class ApproxError(ValueError):
@@ -74,6 +74,42 @@ def as_points(x, name: str = "x") -> np.ndarray:
         bad = arr[~np.isfinite(arr)].ravel()[0]
         raise ApproxError(f"{name}: contains non-finite values ({bad}); expected finite numbers")
     return arr
+
+
+def as_knots(knots, name: str = "knots") -> np.ndarray:
+    """Checked knots: a strictly increasing 1-D array of at least two finite values."""
+    x = as_points(knots, name)
+    if x.ndim != 1 or x.size < 2:
+        raise ApproxError(f"{name}: expected a 1-D array of at least two values, got shape "
+                          f"{x.shape}")
+    if np.any(np.diff(x) <= 0):
+        raise ApproxError(f"{name}: must be strictly increasing")
+    return x
+
+
+def as_count(n, name: str, low: int, high: int) -> int:
+    """An integer count in [low, high] (floats equal to integers accepted)."""
+    if isinstance(n, (bool, np.bool_)):
+        raise ApproxError(f"{name}: expected an integer, got {bool(n)}")
+    v = as_real(n, name)
+    if v != int(v):
+        raise ApproxError(f"{name}: expected an integer, got {v!r}")
+    if not low <= v <= high:
+        raise ApproxError(f"{name}: expected {low} ≤ {name} ≤ {high}, got {int(v)}"
+                          + (f" ({high} is the documented maximum; σ falls like n^(-5/2) for "
+                             f"smooth f'', so n = {high} already gives about "
+                             f"{float(high) ** -2.5:.0e} of the one-interval σ)"
+                             if v > high and name == "n" else ""))
+    return int(v)
+
+
+def as_positive(value, name: str, what: str = "a positive number", *,
+                zero: bool = False) -> float:
+    """``value`` as a finite float > 0 (≥ 0 with ``zero``), or ApproxError naming ``name``."""
+    v = as_real(value, name)
+    if v < 0 or (v == 0 and not zero):
+        raise ApproxError(f"{name}: expected {what}, got {v}")
+    return v
 
 
 _GL_HI = leggauss(48)
@@ -171,7 +207,8 @@ class TransferFunction(ABC):
             Q (N for a slide input), of the broadcast shape.
         """
         x, xd, xdd = (as_points(v, name) for v, name in ((x, "x"), (xd, "xd"), (xdd, "xdd")))
-        mass_moment = as_real(mass_moment, "mass_moment")
+        mass_moment = as_positive(mass_moment, "mass_moment", "a moment of inertia m L² ≥ 0 "
+                                  "(kg·m²)", zero=True)
         try:
             x, xd, xdd = np.broadcast_arrays(x, xd, xdd)
         except ValueError:
@@ -260,8 +297,15 @@ class PiecewiseAnalog(TransferFunction):
         integrals of the broken line over the intervals before it (vectorised; no
         recursion in global powers of x).
         """
-        x = np.asarray(knots, float)
-        y = np.asarray(y, float)
+        x = as_knots(knots)
+        y = as_points(y, "y")
+        if y.shape != x.shape:
+            raise ApproxError(f"y: expected one value per knot (knots has shape {x.shape}), got "
+                              f"shape {y.shape}")
+        f_a, df_a = as_real(f_a, "f_a"), as_real(df_a, "df_a")
+        gamma = as_positive(gamma, "gamma", "a positive weight")
+        if d2f is not None and not callable(d2f):
+            raise ApproxError(f"d2f: expected a callable d2f(x) or None, got {type(d2f).__name__}")
         h = np.diff(x)
         k = np.diff(y) / h
         n = k.size
@@ -332,7 +376,9 @@ class PiecewiseAnalog(TransferFunction):
 
     def errors(self, f, df, d2f, samples: int = 2001) -> dict:
         """Largest |F − f|, |F' − f'|, |F'' − f''| over a uniform sample of [a, b]."""
-        x = np.linspace(self.a, self.b_end, samples)
+        from .fit import _checked
+        f, df, d2f = _checked(f, "f"), _checked(df, "df"), _checked(d2f, "d2f")
+        x = np.linspace(self.a, self.b_end, as_count(samples, "samples", 2, 10 ** 8))
         return {"max_abs_F": float(np.max(np.abs(self.position(x) - f(x)))),
                 "max_abs_dF": float(np.max(np.abs(self.velocity(x) - df(x)))),
                 "max_abs_d2F": float(np.max(np.abs(self.acceleration(x) - d2f(x))))}

@@ -15,6 +15,8 @@ import numpy as np
 
 from closure import Mechanism, frame_from_points, translation
 
+from .analog import ApproxError, as_points, as_positive, as_real
+
 __all__ = ["B", "B0", "B3", "f3", "psi31", "dpsi31", "mechanism", "drive_law", "M3", "TAU"]
 
 B = B0 = 0.7     # m
@@ -23,25 +25,36 @@ M3 = 500.0       # kg, rocker mass (a point mass at L3 = B3)
 TAU = 5.0        # s, duration of the drive law
 
 
+def _lengths(b, b0, b3):
+    """The three lengths checked: finite and positive (m)."""
+    return tuple(as_positive(v, name, "a positive length (m)")
+                 for v, name in ((b, "b"), (b0, "b0"), (b3, "b3")))
+
+
+def _args(q1, b, b0, b3):
+    return (as_points(q1, "q1"), *_lengths(b, b0, b3))
+
+
 def _u(q1, b=B, b0=B0, b3=B3):
     return ((b + q1) ** 2 - b0 ** 2 - b3 ** 2) / (b0 * b3)
 
 
 def f3(q1, b=B, b0=B0, b3=B3):
     """Rocker angle q₃ (rad) for the piston stroke q₁ (m)."""
-    return np.arcsin(0.5 * _u(np.asarray(q1, float), b, b0, b3))
+    q1, b, b0, b3 = _args(q1, b, b0, b3)
+    return np.arcsin(0.5 * _u(q1, b, b0, b3))
 
 
 def psi31(q1, b=B, b0=B0, b3=B3):
     """Ψ₃₁ = dq₃/dq₁ (rad/m), formula (6)."""
-    q1 = np.asarray(q1, float)
+    q1, b, b0, b3 = _args(q1, b, b0, b3)
     with np.errstate(invalid="ignore", divide="ignore"):
         return 2 * (b + q1) / (b0 * b3 * np.sqrt(4 - _u(q1, b, b0, b3) ** 2))
 
 
 def dpsi31(q1, b=B, b0=B0, b3=B3):
     """dΨ₃₁/dq₁ (rad/m²), formula (7) with (B₀B₃)⁻¹ for the misprinted (B₀B₁)⁻¹."""
-    q1 = np.asarray(q1, float)
+    q1, b, b0, b3 = _args(q1, b, b0, b3)
     u = _u(q1, b, b0, b3)
     s = 4 - u ** 2
     with np.errstate(invalid="ignore", divide="ignore"):   # NaN / inf past the dead point
@@ -50,7 +63,9 @@ def dpsi31(q1, b=B, b0=B0, b3=B3):
 
 def drive_law(t, tau=TAU, stroke=0.3):
     """q₁(t) = 0.3 [t/τ − sin(2πt/τ)/(2π)] and its first two derivatives."""
-    t = np.asarray(t, float)
+    t = as_points(t, "t")
+    tau = as_positive(tau, "tau", "a positive duration (s)")
+    stroke = as_real(stroke, "stroke")
     w = 2 * np.pi / tau
     q = stroke * (t / tau - np.sin(w * t) / (2 * np.pi))
     qd = stroke * (1 / tau - np.cos(w * t) / tau)
@@ -65,6 +80,11 @@ def mechanism(b=B, b0=B0, b3=B3) -> Mechanism:
     q₁ = 0); the rocker's angle q₃ equals ``f3(0) − θ_A`` with θ_A the
     coordinate of joint "A".
     """
+    b, b0, b3 = _lengths(b, b0, b3)
+    if not abs(b0 - b3) < b < b0 + b3:
+        raise ApproxError(f"b: expected a cylinder length between |b0 − b3| = {abs(b0 - b3):.6g} "
+                          f"and b0 + b3 = {b0 + b3:.6g} (m) so that the mechanism assembles, "
+                          f"got {b}")
     cosA = (b0 ** 2 + b3 ** 2 - b ** 2) / (2 * b0 * b3)       # angle OAC at q1 = 0
     ang = np.pi - np.arccos(cosA)                              # direction of AC from +x
     O, A = np.zeros(3), np.array([b0, 0.0, 0.0])

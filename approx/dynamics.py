@@ -19,9 +19,12 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from .analog import ApproxError, TransferFunction
+from .analog import ApproxError, TransferFunction, as_points, as_positive, as_real
 
 __all__ = ["TransferDynamics"]
+
+#: the method names of scipy's ``solve_ivp`` (an OdeSolver subclass is passed through)
+METHODS = ("RK23", "RK45", "DOP853", "Radau", "BDF", "LSODA")
 
 
 class TransferDynamics:
@@ -42,14 +45,17 @@ class TransferDynamics:
         if not isinstance(transfer, TransferFunction):
             raise ApproxError("transfer: expected a TransferFunction (EngineAnalogs or "
                               "PiecewiseAnalog)")
-        if not (np.isfinite(inertia) and inertia > 0):
-            raise ApproxError(f"inertia: expected a positive moment of inertia, got {inertia}")
-        self.tf, self.I, self.load = transfer, float(inertia), load
+        inertia = as_positive(inertia, "inertia", "a positive moment of inertia (kg·m²)")
+        if load is not None and not callable(load):
+            raise ApproxError(f"load: expected a callable load(t, x, xd) or None, got "
+                              f"{type(load).__name__}")
+        self.tf, self.I, self.load = transfer, inertia, load
 
     def drive(self, t, x, xd, xdd) -> np.ndarray:
         """Drive force for a given motion (inverse dynamics, no integration)."""
         Q = self.tf.force(x, xd, xdd, self.I)
         if self.load is not None:
+            t = as_points(t, "t")
             Q = Q - np.asarray(self.load(t, x, xd), float)
         return Q
 
@@ -62,6 +68,31 @@ class TransferDynamics:
         without a load their difference stays zero (the energy balance).
         """
         from scipy.integrate import solve_ivp
+
+        ts = as_points(t_span, "t_span")
+        if ts.shape != (2,):
+            raise ApproxError(f"t_span: expected two times (t0, t1) (s), got "
+                              f"{ts.tolist() if ts.size <= 4 else f'shape {ts.shape}'}")
+        x0, xd0 = as_real(x0, "x0"), as_real(xd0, "xd0")
+        try:
+            self.tf.velocity(np.array([x0]))
+        except ApproxError as e:
+            raise ApproxError(f"x0: {e}") from None
+        if not callable(drive):
+            raise ApproxError(f"drive: expected a callable drive(t, x, xd), got "
+                              f"{type(drive).__name__}")
+        if isinstance(method, str) and method not in METHODS:
+            raise ApproxError(f"method: {method!r} unknown; expected one of "
+                              f"{', '.join(METHODS)}")
+        rtol = as_positive(rtol, "rtol", "a positive tolerance")
+        atol = as_positive(atol, "atol", "a positive tolerance")
+        if t_eval is not None:
+            t_eval = as_points(t_eval, "t_eval")
+            lo, hi = min(ts), max(ts)
+            if t_eval.ndim != 1 or (t_eval.size and (t_eval.min() < lo or t_eval.max() > hi)):
+                raise ApproxError(f"t_eval: expected times (a 1-D array) within t_span "
+                                  f"[{lo}, {hi}]")
+        t_span = (float(ts[0]), float(ts[1]))
 
         def rhs(t, y):
             x, xd = y[0], y[1]

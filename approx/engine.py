@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from closure import MechanismError, Pose, joint_analogs
+from closure import ClosureError, MechanismError, Pose, joint_analogs
 
 from .analog import ApproxError, TransferFunction, as_points, as_real
 
@@ -72,6 +72,9 @@ class EngineAnalogs(TransferFunction):
             raise ApproxError(f"samples: expected an integer ≥ 2, got {samples!r}")
         self.m, self.joint, self.index = mechanism, joint, int(index)
         self.offset, self.sign = as_real(offset, "offset"), as_real(sign, "sign")
+        if self.sign == 0:
+            raise ApproxError("sign: expected a non-zero factor (1 or -1 to flip the output), "
+                              "got 0.0")
         self.a, self.b = a, b
         self._cache = None
         xs = np.linspace(a, b, int(samples))
@@ -127,7 +130,12 @@ class EngineAnalogs(TransferFunction):
         if flat.size == 0:
             out = (np.zeros(shape),) * 3
         else:
-            val, d1, d2 = joint_analogs(self.m, self._solve(flat), self.joint, self.index)
+            try:
+                pose = self._solve(flat)
+            except ClosureError as e:
+                raise ApproxError(f"x: the mechanism cannot reach every x (fitted range "
+                                  f"[{self.a}, {self.b}]): {e}") from None
+            val, d1, d2 = joint_analogs(self.m, pose, self.joint, self.index)
             s = self.sign
             out = ((self.offset + s * val).reshape(shape), (s * d1).reshape(shape),
                    (s * d2).reshape(shape))

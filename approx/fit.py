@@ -10,7 +10,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.linalg import solve_banded
 
-from .analog import ApproxError, PiecewiseAnalog, _sigma2, as_points, as_real, interval_sigma
+from .analog import (ApproxError, PiecewiseAnalog, _sigma2, as_count, as_knots, as_real,
+                     interval_sigma)
 
 __all__ = ["fit", "fit_least_squares", "default_gamma", "MAX_N", "MAX_ADAPTIVE"]
 
@@ -74,20 +75,7 @@ def _gamma(gamma, d2f, a, b):
     return g, "given"
 
 
-def _count(n, name, low, high):
-    """An integer count in [low, high] (floats equal to integers accepted)."""
-    if isinstance(n, (bool, np.bool_)):
-        raise ApproxError(f"{name}: expected an integer, got {n!r}")
-    v = as_real(n, name)
-    if v != int(v):
-        raise ApproxError(f"{name}: expected an integer, got {n!r}")
-    if not low <= v <= high:
-        raise ApproxError(f"{name}: expected {low} ≤ {name} ≤ {high}, got {int(v)}"
-                          + (f" ({high} is the documented maximum; σ falls like n^(-5/2) for "
-                             f"smooth f'', so n = {high} already gives about "
-                             f"{float(high) ** -2.5:.0e} of the one-interval σ)"
-                             if v > high else ""))
-    return int(v)
+_count = as_count
 
 
 def default_gamma(d2f, a, b, samples: int = 4001) -> float:
@@ -107,7 +95,7 @@ def default_gamma(d2f, a, b, samples: int = 4001) -> float:
         γ in units of 1 / [f''] (1 when f'' is constant).
     """
     a, b = _check_range(a, b)
-    v = _checked(d2f, "d2f")(np.linspace(a, b, samples))
+    v = _checked(d2f, "d2f")(np.linspace(a, b, _count(samples, "samples", 2, 10 ** 8)))
     rng = float(np.max(v) - np.min(v))
     return 1.0 / rng if rng > 0 else 1.0
 
@@ -313,15 +301,7 @@ def _bracket_minimax(d2f, a, b, n, gamma, tol, rtol=1e-10):
     return x, hi
 
 
-def _knots(knots) -> np.ndarray:
-    """Checked knots: a strictly increasing 1-D array of at least two values."""
-    x = as_points(knots, "knots")
-    if x.ndim != 1 or x.size < 2:
-        raise ApproxError(f"knots: expected a 1-D array of at least two values, got shape "
-                          f"{x.shape}")
-    if np.any(np.diff(x) <= 0):
-        raise ApproxError("knots: must be strictly increasing")
-    return x
+_knots = as_knots
 
 
 def fit(f, df, d2f, a: float, b: float, *, delta: float | None = None,

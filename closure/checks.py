@@ -6,7 +6,15 @@ from numbers import Real
 
 import numpy as np
 
-__all__ = ["real_array", "real_number"]
+__all__ = ["real_array", "real_number", "shown"]
+
+
+def shown(x) -> str:
+    """``x`` for a message: its type and, for plain Python values, a short repr (never a
+    numpy repr)."""
+    if x is None or isinstance(x, (str, bytes, bool, int, float, complex)):
+        return f"{type(x).__name__} {x!r:.60}"
+    return type(x).__name__
 
 
 def real_number(x, name: str, error: type[ValueError], *, positive: bool = False,
@@ -34,7 +42,8 @@ def real_number(x, name: str, error: type[ValueError], *, positive: bool = False
 
 def real_array(x, name: str, error: type[ValueError], expect: str = "numbers") -> np.ndarray:
     """``x`` as a float array after checking it holds real numbers (no strings, None,
-    complex values, ragged nesting or objects); shape and finiteness are the caller's.
+    booleans, complex values, ragged nesting or objects); shape and finiteness are the
+    caller's.
 
     Raises ``error`` with a message that starts with ``name`` and says ``expect``."""
     if isinstance(x, (str, bytes)) or x is None:
@@ -42,8 +51,11 @@ def real_array(x, name: str, error: type[ValueError], expect: str = "numbers") -
     try:
         a = np.asarray(x)
         if a.dtype.kind == "c":
-            raise error(f"{name}: expected real numbers {expect}, got complex values")
-        return a.astype(float, copy=a.dtype.kind not in "biuf")
+            want = "real numbers" if expect == "numbers" else f"{expect} (real, not complex)"
+            raise error(f"{name}: expected {want}, got complex values")
+        if a.dtype.kind == "b":
+            raise error(f"{name}: expected {expect}, got booleans (True/False)")
+        return a.astype(float, copy=a.dtype.kind not in "iuf")
     except error:
         raise
     except (TypeError, ValueError, OverflowError):

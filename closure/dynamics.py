@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import ClosureError, MechanismError
+from .checks import real_number
 from .frames import as_array, as_index, as_number, cross, skew
 from .kinematics import _bias, analogs, link_twists
 from .pose import Pose
@@ -53,6 +54,31 @@ def pseudo_inertia(mass: float, com, inertia) -> np.ndarray:
     if c.shape != (3,) or I.shape != (3, 3):
         raise MechanismError(f"pseudo_inertia: expected com (3,) and inertia (3, 3), got "
                              f"{c.shape} and {I.shape}")
+    _check_mass_properties(mass, I, "pseudo_inertia", physical=False)
+    return _pseudo_inertia(mass, c, I)
+
+
+def _check_mass_properties(mass, I, what, physical=True):
+    """A positive mass and a symmetric, positive semidefinite inertia tensor whose principal
+    moments satisfy the triangle inequality (only when ``physical``: the formula of
+    :func:`pseudo_inertia` holds without it); raises MechanismError naming ``what``."""
+    if not mass > 0:
+        raise MechanismError(f"{what}: mass must be positive (kg), got {mass}")
+    if np.abs(I - I.T).max() > 1e-9 * max(1.0, np.abs(I).max()):
+        raise MechanismError(f"{what}: inertia tensor must be symmetric")
+    ev = np.linalg.eigvalsh(I)
+    tol = 1e-9 * max(ev.max(), 1e-300)
+    if ev.min() < -tol:
+        raise MechanismError(f"{what}: inertia tensor is not positive "
+                             f"semidefinite (eigenvalue {ev.min():.3g})")
+    a, b, c = ev
+    if physical and a + b < c - tol:
+        raise MechanismError(f"{what}: principal moments {ev} violate the "
+                             "triangle inequality (no real body has them)")
+
+
+def _pseudo_inertia(mass, c, I):
+    """:func:`pseudo_inertia` of checked mass properties."""
     S = 0.5 * np.trace(I) * np.eye(3) - I + mass * np.outer(c, c)
     J = np.zeros((4, 4))
     J[:3, :3] = S
@@ -81,22 +107,12 @@ class Body:
         I = self.inertia
         if I.shape != (3, 3) or not np.all(np.isfinite(I)):
             raise MechanismError(f"body {self.link!r}: inertia must be a finite 3x3 tensor (kg·m²)")
-        if np.abs(I - I.T).max() > 1e-9 * max(1.0, np.abs(I).max()):
-            raise MechanismError(f"body {self.link!r}: inertia tensor must be symmetric")
-        ev = np.linalg.eigvalsh(I)
-        tol = 1e-9 * max(ev.max(), 1e-300)
-        if ev.min() < -tol:
-            raise MechanismError(f"body {self.link!r}: inertia tensor is not positive "
-                                 f"semidefinite (eigenvalue {ev.min():.3g})")
-        a, b, c = ev
-        if a + b < c - tol:
-            raise MechanismError(f"body {self.link!r}: principal moments {ev} violate the "
-                                 "triangle inequality (no real body has them)")
+        _check_mass_properties(self.mass, I, f"body {self.link!r}")
 
     @property
     def J(self) -> np.ndarray:
         """The 4x4 pseudo-inertia in the link frame."""
-        return pseudo_inertia(self.mass, self.com, self.inertia)
+        return _pseudo_inertia(self.mass, self.com, self.inertia)
 
 
 @dataclass
@@ -203,6 +219,8 @@ class Dynamics:
         ``Q`` holds gravity, springs, dampers and given joint forces (not drives)."""
         mech = self.m
         B = len(pose)
+        if _first_out is None:        # a public call (simulate passes the integrator's state)
+            xd = _rates(xd, "terms: xd", (B, len(mech.inputs)))
         xd = np.broadcast_to(np.asarray(xd, float), (B, len(mech.inputs)))
         ks = pose.kinematics()
         first, second = analogs(mech, pose, ks=ks)
@@ -252,6 +270,7 @@ class Dynamics:
 
     def energy(self, pose: Pose, xd) -> dict:
         """Kinetic, gravitational and spring energy (J), each (B,)."""
+        xd = _rates(xd, "energy: xd", (len(pose), len(self.m.inputs)))
         M, _, _, _ = self.terms(pose, xd)
         xd = np.broadcast_to(np.asarray(xd, float), (len(pose), len(self.m.inputs)))
         T = 0.5 * np.einsum("bi,bij,bj->b", xd, M, xd)
@@ -367,9 +386,16 @@ class Dynamics:
         x0 = _finite_vector(x0, n, "x0")
         xd0 = _finite_vector(xd0, n, "xd0")
         for name, v in (("rtol", rtol), ("atol", atol)):
+            real_number(v, f"simulate: {name}", MechanismError)
             if not (np.isfinite(v) and v > 0):
                 raise MechanismError(f"simulate: {name} must be a positive number, got {v!r}")
-        t0, t1 = (float(v) for v in np.asarray(t_span, float).reshape(2))
+        if drive is not None and not callable(drive):
+            raise MechanismError(f"simulate: drive must be callable as drive(t, x, xd), got "
+                                 f"{type(drive).__name__}")
+        ts = as_array(t_span, "simulate: t_span", finite=False)
+        if ts.shape != (2,):
+            raise MechanismError(f"simulate: t_span must be (t0, t1), got shape {ts.shape}")
+        t0, t1 = (float(v) for v in ts)
         if not (np.isfinite(t0) and np.isfinite(t1) and t1 > t0):
             raise MechanismError(f"simulate: t_span must be (t0, t1) with t1 > t0, got {t_span}")
         opts = options or SolverOptions()
@@ -451,11 +477,23 @@ class Dynamics:
         return out
 
 
-def _finite_vector(v, n, name):
+def _rates(v, name, shape):
+    """Input rates ``v`` checked (real, finite) and broadcast to ``shape``."""
+    a = as_array(v, name)
     try:
-        a = np.asarray(v, float).reshape(n)
-    except (TypeError, ValueError):
-        raise MechanismError(f"simulate: {name} must be {n} number(s), got {v!r}") from None
+        return np.broadcast_to(a, shape)
+    except ValueError:
+        raise MechanismError(f"{name}: expected shape {shape} or ({shape[1]},), got "
+                             f"{a.shape}") from None
+
+
+def _finite_vector(v, n, name):
+    a = as_array(v, f"simulate: {name}", finite=False)
+    try:
+        a = a.reshape(n)
+    except ValueError:
+        raise MechanismError(f"simulate: {name} must be {n} number(s), got shape "
+                             f"{a.shape}") from None
     if not np.all(np.isfinite(a)):
         raise MechanismError(f"simulate: {name} must be finite, got {a.tolist()}")
     return a

@@ -17,7 +17,7 @@ from .checks import real_array, real_number
 __all__ = [
     "skew", "cross", "unskew", "hat", "vee", "rotation", "rot_x", "rot_y", "rot_z",
     "transform", "translation", "inverse", "adjoint", "ad", "exp_so3", "log_so3",
-    "exp_se3", "log_se3", "frame_from_points", "euler_zxz", "check_transform",
+    "exp_se3", "log_se3", "frame_from_points", "euler_zxz", "check_transform", "check_rotation",
     "as_array", "as_number", "as_index",
 ]
 
@@ -78,7 +78,10 @@ def _broadcast(name, *shapes):
 
 def skew(p: np.ndarray) -> np.ndarray:
     """Skew-symmetric matrix ``[p]×`` of a 3-vector, shape ``(..., 3)`` → ``(..., 3, 3)``."""
-    p = as_array(p, "skew: p", (3,))
+    return _skew(as_array(p, "skew: p", (3,)))
+
+
+def _skew(p):
     out = np.zeros(p.shape[:-1] + (3, 3))
     x, y, w = p[..., 0], p[..., 1], p[..., 2]
     out[..., 0, 1], out[..., 0, 2] = -w, y
@@ -102,7 +105,10 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def unskew(S: np.ndarray) -> np.ndarray:
     """The 3-vector of a skew-symmetric matrix (its antisymmetric part), ``(..., 3, 3)`` → ``(..., 3)``."""
-    S = as_array(S, "unskew: S", (3, 3))
+    return _unskew(as_array(S, "unskew: S", (3, 3)))
+
+
+def _unskew(S):
     return 0.5 * np.stack([S[..., 2, 1] - S[..., 1, 2], S[..., 0, 2] - S[..., 2, 0],
                            S[..., 1, 0] - S[..., 0, 1]], -1)
 
@@ -141,10 +147,15 @@ def exp_so3(w: np.ndarray) -> np.ndarray:
 def log_so3(R: np.ndarray) -> np.ndarray:
     """Rotation vector of a rotation matrix, angle in [0, π]: ``(..., 3, 3)`` → ``(..., 3)``.
 
-    Accurate near 0 (series) and near π (from the symmetric part).
+    Accurate near 0 (series) and near π (from the symmetric part).  ``R`` is checked to be
+    a proper rotation (orthonormal to 1e-9, determinant +1).
     """
-    R = as_array(R, "log_so3: R", (3, 3))
-    v = unskew(R)                      # sin(th) * axis
+    return _log_so3(check_rotation(R, "log_so3: R"))
+
+
+def _log_so3(R):
+    """:func:`log_so3` without checks (engine-internal)."""
+    v = _unskew(R)                      # sin(th) * axis
     s = np.linalg.norm(v, axis=-1)
     th = np.arctan2(s, (np.trace(R, axis1=-2, axis2=-1) - 1) / 2)
     small = th < 1e-5
@@ -187,16 +198,21 @@ def exp_se3(xi: np.ndarray) -> np.ndarray:
 
 
 def log_se3(T: np.ndarray) -> np.ndarray:
-    """Twist ``(v, ω)`` with ``exp_se3(ξ) = T``, rotation angle in [0, π]: ``(..., 4, 4)`` → ``(..., 6)``."""
-    T = as_array(T, "log_se3: T", (4, 4))
-    w = log_so3(T[..., :3, :3])
+    """Twist ``(v, ω)`` with ``exp_se3(ξ) = T``, rotation angle in [0, π]: ``(..., 4, 4)`` → ``(..., 6)``
+    (``T`` checked as a rigid transform, as in :func:`inverse`)."""
+    return _log_se3(check_transform(T, "log_se3: T"))
+
+
+def _log_se3(T):
+    """:func:`log_se3` without checks (engine-internal, hot path)."""
+    w = _log_so3(T[..., :3, :3])
     th2 = np.sum(w * w, -1)
     small = th2 < 1e-8
     th = np.sqrt(np.where(small, 1.0, th2))
     # V^{-1} = I - K/2 + e K², e = (1 - th sin th / (2 (1 - cos th))) / th²
     e = np.where(small, 1 / 12 + th2 / 720,
                  (1 - th * np.sin(th) / (2 * (1 - np.cos(th)))) / th ** 2)
-    K = skew(w)
+    K = _skew(w)
     Vinv = _EYE3 - 0.5 * K + e[..., None, None] * (K @ K)
     v = (Vinv @ T[..., :3, 3:4])[..., 0]
     return np.concatenate([v, w], -1)
@@ -242,8 +258,9 @@ def rot_z(angle) -> np.ndarray:
 
 
 def transform(R: np.ndarray | None = None, p: np.ndarray | None = None) -> np.ndarray:
-    """4x4 transform ``[[R, p], [0, 1]]`` from a rotation ``(..., 3, 3)`` and a translation ``(..., 3)``."""
-    R = _EYE3 if R is None else as_array(R, "transform: R", (3, 3))
+    """4x4 transform ``[[R, p], [0, 1]]`` from a rotation ``(..., 3, 3)`` (checked: proper, to
+    1e-9) and a translation ``(..., 3)``."""
+    R = _EYE3 if R is None else check_rotation(R, "transform: R")
     p = np.zeros(3) if p is None else as_array(p, "transform: p", (3,))
     return _transform(R, p, _broadcast("transform: R and p", R.shape[:-2], p.shape[:-1]))
 
@@ -269,20 +286,32 @@ def translation(p: np.ndarray) -> np.ndarray:
 
 
 def inverse(T: np.ndarray) -> np.ndarray:
-    """Inverse of rigid transforms ``(..., 4, 4)`` (uses Rᵀ, not a general inverse)."""
-    T = as_array(T, "inverse: T", (4, 4))
+    """Inverse of rigid transforms ``(..., 4, 4)`` (uses Rᵀ, not a general inverse).
+
+    ``T`` is checked like a joint frame (:func:`check_transform`: last row (0, 0, 0, 1), a
+    proper rotation to 1e-9); a MechanismError naming ``T`` says what is wrong."""
+    return _inverse(check_transform(T, "inverse: T"))
+
+
+def _inverse(T):
+    """:func:`inverse` without checks (engine-internal, hot path)."""
     Rt = np.swapaxes(T[..., :3, :3], -1, -2)
     return _transform(Rt, -(Rt @ T[..., :3, 3:4])[..., 0])
 
 
 def adjoint(T: np.ndarray) -> np.ndarray:
-    """6x6 adjoint of ``T`` for twists ``(v, ω)``: ``Ad_T ξ = vee(T ξ^ T⁻¹)``."""
-    T = as_array(T, "adjoint: T", (4, 4))
+    """6x6 adjoint of ``T`` for twists ``(v, ω)``: ``Ad_T ξ = vee(T ξ^ T⁻¹)`` (``T`` checked
+    as a rigid transform, as in :func:`inverse`)."""
+    return _adjoint(check_transform(T, "adjoint: T"))
+
+
+def _adjoint(T):
+    """:func:`adjoint` without checks (engine-internal, hot path)."""
     R, p = T[..., :3, :3], T[..., :3, 3]
     out = np.zeros(T.shape[:-2] + (6, 6))
     out[..., :3, :3] = R
     out[..., 3:, 3:] = R
-    out[..., :3, 3:] = skew(p) @ R
+    out[..., :3, 3:] = _skew(p) @ R
     return out
 
 
@@ -308,7 +337,7 @@ def check_transform(T, name: str = "transform", tol: float = 1e-9) -> np.ndarray
         rotation to ``tol``.  The message names ``name``.
     """
     T = as_array(T, name, finite=False)
-    if T.shape[-2:] != (4, 4):
+    if T.ndim < 2 or T.shape[-2:] != (4, 4):
         raise MechanismError(f"{name}: expected a 4x4 transform, got shape {T.shape}")
     if not np.all(np.isfinite(T)):
         raise MechanismError(f"{name}: contains non-finite entries (NaN or inf)")
@@ -316,12 +345,25 @@ def check_transform(T, name: str = "transform", tol: float = 1e-9) -> np.ndarray
         return T
     if np.max(np.abs(T[..., 3, :] - [0, 0, 0, 1])) > tol:
         raise MechanismError(f"{name}: last row must be (0, 0, 0, 1)")
-    R = T[..., :3, :3]
-    err = np.max(np.abs(R @ np.swapaxes(R, -1, -2) - _EYE3))
-    if err > tol or np.any(np.linalg.det(R) < 0):
-        raise MechanismError(f"{name}: rotation block is not a proper rotation "
-                             f"(|R Rᵀ - I| = {err:.2e}, tolerance {tol:.0e})")
+    _proper(T[..., :3, :3], f"{name}: rotation block", tol)
     return T
+
+
+def check_rotation(R, name: str = "R", tol: float = 1e-9) -> np.ndarray:
+    """Return ``R`` as a float array after checking it holds proper rotations ``(..., 3, 3)``
+    (orthonormal to ``tol``, determinant +1); raises MechanismError naming ``name``."""
+    R = as_array(R, name, (3, 3))
+    if R.size:
+        _proper(R, name, tol)
+    return R
+
+
+def _proper(R, what, tol):
+    err = float(np.max(np.abs(R @ np.swapaxes(R, -1, -2) - _EYE3)))
+    if err > tol or np.any(np.linalg.det(R) < 0):
+        raise MechanismError(f"{what} is not a proper rotation "
+                             f"(|R Rᵀ - I| = {err:.2e}, determinant "
+                             f"{float(np.min(np.linalg.det(R))):.3g}, tolerance {tol:.0e})")
 
 
 def frame_from_points(origin, x_point, z_point) -> np.ndarray:
@@ -370,9 +412,14 @@ def euler_zxz(R: np.ndarray) -> np.ndarray:
     """Z–X–Z (Z–N–Z) Euler angles ``(ψ, θ, φ)`` of rotations ``R = Rz(ψ) Rx(θ) Rz(φ)``.
 
     Output only (the solver never uses them).  At the singular ``θ = 0`` or ``π``
-    only ``ψ ± φ`` is defined; then ``φ = 0`` is returned.  Shape ``(..., 3)``.
+    only ``ψ ± φ`` is defined; then ``φ = 0`` is returned.  Shape ``(..., 3)``; ``R`` is
+    checked to be a proper rotation.
     """
-    R = as_array(R, "euler_zxz: R", (3, 3))
+    return _euler_zxz(check_rotation(R, "euler_zxz: R"))
+
+
+def _euler_zxz(R):
+    """:func:`euler_zxz` without checks (engine-internal)."""
     th = np.arctan2(np.hypot(R[..., 0, 2], R[..., 1, 2]), R[..., 2, 2])
     sing = np.hypot(R[..., 0, 2], R[..., 1, 2]) < 1e-12
     psi = np.where(sing, np.arctan2(R[..., 1, 0], R[..., 0, 0]), np.arctan2(R[..., 0, 2], -R[..., 1, 2]))

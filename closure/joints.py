@@ -36,7 +36,7 @@ from functools import cached_property
 import numpy as np
 
 from .errors import MechanismError
-from .frames import _transform, euler_zxz, exp_so3, inverse, rot_y, rot_z, transform
+from .frames import _euler_zxz, _inverse, _transform, exp_so3, rot_y, rot_z, transform
 
 __all__ = ["Joint", "JOINT_KINDS"]
 
@@ -79,12 +79,12 @@ class Joint:
     @cached_property
     def frame_a_inv(self) -> np.ndarray:
         """Inverse of ``frame_a`` (the frames are constant once the joint is added)."""
-        return inverse(self.frame_a)
+        return _inverse(self.frame_a)
 
     @cached_property
     def frame_b_inv(self) -> np.ndarray:
         """Inverse of ``frame_b``."""
-        return inverse(self.frame_b)
+        return _inverse(self.frame_b)
 
     @property
     def nv(self) -> int:
@@ -148,7 +148,7 @@ class Joint:
 
     def values(self, q: np.ndarray, rot: np.ndarray | None) -> np.ndarray:
         """Reported coordinates ``(B, len(coordinate_names))`` (S: Z–X–Z Euler angles)."""
-        return euler_zxz(rot) if self.kind == "S" else q
+        return _euler_zxz(rot) if self.kind == "S" else q
 
     def coordinates_of(self, A: np.ndarray, tol: float = 1e-9):
         """Read the joint coordinates from a relative transform ``A`` (4, 4).

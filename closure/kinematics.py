@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from .errors import MechanismError
+from .checks import shown
 from .frames import as_array, as_index, cross
 from .solver import _expected_rank, _pinv_parts
 
@@ -72,6 +73,8 @@ def analogs(mech, pose, second: bool = True, ks=None):
         ``d²q_c / dx_i dx_j``.
     """
     _check_pose(mech, pose, "analogs")
+    if not isinstance(second, (bool, np.bool_)):
+        raise MechanismError(f"analogs: second: expected True or False, got {shown(second)}")
     t = mech.tree
     ks = ks or pose.kinematics()
     J = mech.jacobian(ks)

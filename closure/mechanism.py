@@ -16,7 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import MechanismError
-from .frames import adjoint, as_array, check_transform, inverse, log_se3
+from .checks import shown
+from .frames import _adjoint, _inverse, _log_se3, as_array, check_transform
 from .joints import JOINT_KINDS, Joint
 
 __all__ = ["Mechanism"]
@@ -95,7 +96,13 @@ class Mechanism:
         self._rot0: list[np.ndarray | None] = []
         self._tree: _Tree | None = None
         self._mobility: int | None = None
-        for name in links:
+        for i, name in enumerate(links):
+            if not isinstance(name, str) or not name:
+                raise MechanismError(f"links: expected non-empty strings (link names), got "
+                                     f"{shown(name)} at position {i}")
+            if name in self._link_set:
+                raise MechanismError(f"links: {name!r} appears twice (or is the ground's name); "
+                                     "expected distinct link names")
             self.add_link(name)
 
     # ------------------------------------------------------------ description
@@ -150,9 +157,12 @@ class Mechanism:
                                      f"mechanism; known links: {', '.join(self.links)}")
         if link_a == link_b:
             raise MechanismError(f"joint {name!r}: link_a and link_b are both {link_a!r}")
+        if not isinstance(validate, (bool, np.bool_)):
+            raise MechanismError(f"joint {name!r}: validate: expected True or False, got "
+                                 f"{shown(validate)}")
         if kind == "H":
             if not isinstance(pitch, (int, float, np.integer, np.floating)) or \
-                    not np.isfinite(pitch):
+                    isinstance(pitch, (bool, np.bool_)) or not np.isfinite(pitch):
                 raise MechanismError(f"joint {name!r}: a helical joint needs a finite pitch "
                                      "(length per radian)")
         elif pitch is not None:
@@ -174,7 +184,7 @@ class Mechanism:
             # A(0) is the identity for every kind but the Hooke joint
             joint.frame_b = fa @ joint.matrix(q0[None])[0] if kind == "U" else fa.copy()
         else:
-            q0, rot0 = joint.coordinates_of(inverse(fa) @ fb)
+            q0, rot0 = joint.coordinates_of(_inverse(fa) @ fb)
             joint.frame_b = fb
         self.joints.append(joint)
         self._joint_by_name[name] = joint
@@ -420,17 +430,17 @@ class Mechanism:
                 rel = j.frame_a @ A[j.index] @ j.frame_b_inv
                 link[:, li] = link[:, lidx[j.link_a]] @ rel
             else:
-                rel = j.frame_b @ inverse(A[j.index]) @ j.frame_a_inv
+                rel = j.frame_b @ _inverse(A[j.index]) @ j.frame_a_inv
                 link[:, li] = link[:, lidx[j.link_b]] @ rel
         frame_a = link[:, t.joint_link_a] @ t.frames_a
         r = np.empty((B, len(t.chords), 6))
         c = t.centre
         for k, ci in enumerate(t.chords):
             j = self.joints[ci]
-            G = frame_a[:, ci] @ A[ci] @ j.frame_b_inv @ inverse(link[:, lidx[j.link_b]])
+            G = frame_a[:, ci] @ A[ci] @ j.frame_b_inv @ _inverse(link[:, lidx[j.link_b]])
             # about the mechanism's centre: T(-c) G T(c) = [R, R c + p - c]
             G[:, :3, 3] += G[:, :3, :3] @ c - c
-            r[:, k] = log_se3(G)
+            r[:, k] = _log_se3(G)
         out = {"link": link, "frame_a": frame_a, "A": A, "r": r}
         if not twists:
             return out
@@ -442,7 +452,7 @@ class Mechanism:
             for k, (prefix, xi, dep) in enumerate(j.columns(q[:, t.q_offset[j.index]:])):
                 c = t.v_offset[j.index] + k
                 F = fa if prefix is None else fa @ prefix
-                S[:, c] = adjoint(F) @ xi
+                S[:, c] = _adjoint(F) @ xi
                 carrier[c] = lidx[j.link_a]
                 deps.append(tuple(t.v_offset[j.index] + d for d in dep))
         out.update(S=S, carrier=carrier, deps=deps)

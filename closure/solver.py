@@ -15,7 +15,8 @@ import numpy as np
 import pandas as pd
 
 from .errors import ClosureError, MechanismError
-from .frames import log_so3
+from .checks import shown
+from .frames import _log_so3
 from .pose import STATUS, Pose
 
 __all__ = ["solve", "sweep", "predict", "SolverOptions"]
@@ -264,17 +265,34 @@ def _norm(r):
     return np.max(np.abs(r), axis=1) if r.shape[1] else np.zeros(r.shape[0])
 
 
-def _inputs_array(mech, inputs):
+def _options(options) -> "SolverOptions":
+    """The solver options: the default for None, else a SolverOptions."""
+    if options is None:
+        return SolverOptions()
+    if not isinstance(options, SolverOptions):
+        raise MechanismError(f"options: expected a SolverOptions (or None), got "
+                             f"{type(options).__name__}")
+    return options
+
+
+def _flag(v, name: str) -> bool:
+    """A True/False argument (not a string, a number or None)."""
+    if not isinstance(v, (bool, np.bool_)):
+        raise MechanismError(f"{name}: expected True or False, got {shown(v)}")
+    return bool(v)
+
+
+def _inputs_array(mech, inputs, name: str = "inputs"):
     n = len(mech.inputs)
     if n == 0:
         raise MechanismError("no inputs declared: call add_input first")
     try:
         x = np.asarray(inputs, dtype=float)
     except (TypeError, ValueError):
-        raise MechanismError(f"inputs: expected numbers (rad or length) for {n} input(s) "
-                             f"{mech.input_labels()}, got {inputs!r:.80}") from None
+        raise MechanismError(f"{name}: expected numbers (rad or length) for {n} input(s) "
+                             f"{mech.input_labels()}, got {type(inputs).__name__}") from None
     if x.size == 0:
-        raise MechanismError(f"inputs: empty; expected at least one value for {n} input(s) "
+        raise MechanismError(f"{name}: empty; expected at least one value for {n} input(s) "
                              f"{mech.input_labels()}")
     scalar = x.ndim == 0 or (x.ndim == 1 and n > 1 and x.shape[0] == n)
     if x.ndim == 0:
@@ -282,10 +300,10 @@ def _inputs_array(mech, inputs):
     elif x.ndim == 1:
         x = x.reshape(1, n) if scalar else x.reshape(-1, 1)
     if x.ndim != 2 or x.shape[1] != n:
-        raise MechanismError(f"inputs: expected shape (B, {n}) for {n} inputs "
+        raise MechanismError(f"{name}: expected shape (B, {n}) for {n} inputs "
                              f"{mech.input_labels()}, got {np.shape(inputs)}")
     if not np.all(np.isfinite(x)):
-        raise MechanismError("inputs: contain non-finite values")
+        raise MechanismError(f"{name}: contain non-finite values")
     return x, scalar and n >= 1 and x.shape[0] == 1
 
 
@@ -493,7 +511,9 @@ def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | N
         With ``reached``: the inputs actually reached (equal to ``inputs`` where
         ``status`` is "ok" or "near-singular").
     """
-    opts = options or SolverOptions()
+    opts = _options(options)
+    raise_on_failure = _flag(raise_on_failure, "raise_on_failure")
+    continuation = _flag(continuation, "continuation")
     x, scalar = _inputs_array(mech, inputs)
     B = x.shape[0]
     start = _start_pose(mech, guess, B, opts)
@@ -551,8 +571,9 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
         Only with ``return_pose=True``: the poses of the rows that were reached
         (for velocities, accelerations and analogs along the path).
     """
-    opts = options or SolverOptions()
-    x, _ = _inputs_array(mech, values)
+    opts = _options(options)
+    return_pose = _flag(return_pose, "return_pose")
+    x, _ = _inputs_array(mech, values, "values")
     cur = solve(mech, x[0], guess, options=opts, raise_on_failure=False)
     poses, status = [cur], [cur.status_text[0] if cur.status[0] >= 2 else "ok"]
     stopped = cur.status[0] >= 2
@@ -604,7 +625,7 @@ def _coord_distance(mech, a, b):
         if j.kind == "S":
             si = t.s_index[j.index]
             rel = a[1][:, si] @ np.swapaxes(b[1][:, si], -1, -2)
-            out[:, sl] = log_so3(rel)
+            out[:, sl] = _log_so3(rel)
         else:
             qa = a[0][:, t.q_offset[j.index]:t.q_offset[j.index] + j.nq]
             qb = b[0][:, t.q_offset[j.index]:t.q_offset[j.index] + j.nq]

@@ -26,8 +26,8 @@ import scipy.integrate as si
 
 from .errors import ClosureError, MechanismError
 from .pose import Pose
-from .solver import (TANGENT_COND, SolverOptions, _cat_poses, _status, branch_tangent, newton,
-                     predict)
+from .solver import (TANGENT_COND, SolverOptions, _cat_poses, _origin_offset, _status,
+                     branch_tangent, newton, predict)
 
 __all__ = ["IntegrationResult", "METHODS"]
 
@@ -109,7 +109,8 @@ def solve_along(mech, base: Pose, first: np.ndarray, X: np.ndarray, opts: Solver
                            f"{r[i]:.2e}, condition {c[i]:.2e}): the motion reached past a fold "
                            "of the loop equations", inputs=X[bad], residual=r[bad],
                            condition=c[bad])
-    return Pose(mech, X.copy(), st[0], st[1], r, it, c, _status(r, c, conv, opts), _ks=ks)
+    return Pose(mech, X.copy(), st[0], st[1], r, it, c, _status(mech, r, c, conv, opts),
+                _ks=ks)
 
 
 #: above this condition number the dynamics are evaluated as their limit along the
@@ -218,10 +219,10 @@ def poses_at(mech, run: dict, t_out: np.ndarray, opts: SolverOptions):
                       base.inputs, X)
     st, r, it, c, conv, ks = newton(mech, pred, opts)
     if not conv.all() or (r > opts.rtol).any():
-        i = int(np.argmax(~conv | (r > opts.rtol)))
+        i = int(np.argmax(~conv | (r > opts.rtol * _origin_offset(mech))))
         raise ClosureError(f"simulate: the loops do not close at output time {t_out[i]:.6g} "
                            f"(residual {r[i]:.2e}, condition {c[i]:.2e})")
-    return t_out, Y, Pose(mech, X.copy(), st[0], st[1], r, it, c, _status(r, c, conv, opts),
+    return t_out, Y, Pose(mech, X.copy(), st[0], st[1], r, it, c, _status(mech, r, c, conv, opts),
                           _ks=ks)
 
 

@@ -33,7 +33,8 @@ class SolverOptions:
         Both are multiplied by ``1 + |centre| / scale`` of the mechanism: a model far
         from the world origin holds its coordinates to that many fewer digits.
     rtol : float
-        A converged pose with residual above ``rtol`` did not close ("no assembly").
+        A converged pose with residual above ``rtol`` did not close ("no assembly");
+        multiplied, like ``xtol``, by ``1 + |centre| / scale``.
     maxiter : int
     max_step : float
         Largest step in any dimensionless coordinate per iteration (rad), a
@@ -163,8 +164,7 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None):
     """
     unknown = mech.unknown_columns() if columns is None else columns
     rank = _expected_rank(mech) if rank is None else rank
-    t = mech.tree
-    offset = 1.0 + float(np.linalg.norm(t.centre)) / t.scale   # digits lost to the origin
+    offset = _origin_offset(mech)                              # digits lost to the origin
     floor, xtol = 1e-14 * offset, opts.xtol * offset
     noise = 1e-15 * offset                                     # rounding in the residual
     q, rot = (a.copy() for a in state)
@@ -307,11 +307,18 @@ def _inputs_array(mech, inputs, name: str = "inputs"):
     return x, scalar and n >= 1 and x.shape[0] == 1
 
 
-def _status(res, cond, conv, opts):
+def _origin_offset(mech) -> float:
+    """``1 + |centre| / scale``: how many times the rounding of a pose's coordinates grows
+    because the mechanism sits away from the world origin (tolerances scale with it)."""
+    t = mech.tree
+    return 1.0 + float(np.linalg.norm(t.centre)) / t.scale
+
+
+def _status(mech, res, cond, conv, opts):
     status = np.zeros(res.shape, dtype=int)
     status[cond > opts.cond_limit] = 1
     status[~conv] = 2
-    status[conv & (res > opts.rtol)] = 3
+    status[conv & (res > opts.rtol * _origin_offset(mech))] = 3
     return status
 
 
@@ -478,7 +485,8 @@ def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions) -> Pose:
     q = q.copy()
     q[:, mech.input_q_columns()] = x0
     st, res, its, cond, conv, ks = newton(mech, (q, rot.copy()), opts)
-    pose = Pose(mech, x0, st[0], st[1], res, its, cond, _status(res, cond, conv, opts), _ks=ks)
+    pose = Pose(mech, x0, st[0], st[1], res, its, cond, _status(mech, res, cond, conv, opts),
+                _ks=ks)
     return _take_pose(pose, np.zeros(B, dtype=int)) if n == 1 and B > 1 else pose
 
 
@@ -520,7 +528,7 @@ def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | N
     if continuation:
         pose, stop, _ = _continue(mech, start, x, opts)
         res, cond = pose.residual, pose.condition
-        status = _status(res, cond, np.ones(B, bool), opts)
+        status = _status(mech, res, cond, np.ones(B, bool), opts)
         status = np.where(start.status >= 2, start.status, np.where(stop > 0, stop, status))
         reached = pose.inputs
         pose = Pose(mech, x, pose.q, pose.rot, res, pose.iterations, cond, status, scalar,
@@ -529,7 +537,8 @@ def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | N
         q, rot = start.q.copy(), start.rot.copy()
         q[:, mech.input_q_columns()] = x
         state, res, its, cond, conv, ks = newton(mech, (q, rot), opts)
-        pose = Pose(mech, x, state[0], state[1], res, its, cond, _status(res, cond, conv, opts),
+        pose = Pose(mech, x, state[0], state[1], res, its, cond,
+                    _status(mech, res, cond, conv, opts),
                     scalar, _ks=ks)
     bad = pose.status >= 2
     if raise_on_failure and bad.any():
@@ -592,7 +601,7 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
     n = len(poses)
     pose = _cat_poses(poses)
     reached, pose.inputs = pose.inputs, x[:n].copy()
-    pose.status = _status(pose.residual, pose.condition, np.ones(n, bool), opts)
+    pose.status = _status(mech, pose.residual, pose.condition, np.ones(n, bool), opts)
     df = pose.table()
     df["status"] = status
     for k, lab in enumerate(mech.input_labels()):

@@ -533,6 +533,8 @@ class Hexapod:
         (the caller flags singular rows).  ``frame``: None (base origin) or "platform".
         ``cond=False`` skips the singular values (cond is then None)."""
         T = transform(T, "T")
+        if not isinstance(cond, (bool, np.bool_)):
+            raise StiffnessError(f"cond: expected True or False, got {type(cond).__name__}")
         if T.ndim != 3:
             raise StiffnessError(f"T: expected a batch of poses (B, 4, 4), got shape {T.shape}")
         if not (frame is None or isinstance(frame, str) and frame == "platform"):

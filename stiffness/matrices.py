@@ -44,6 +44,9 @@ def spring_stiffness(k, directions, points) -> np.ndarray:
     if d.shape[-2] != k.shape[-1] or r.shape[-2] != k.shape[-1]:
         raise StiffnessError(f"directions, points: expected {k.shape[-1]} springs (..., "
                              f"{k.shape[-1]}, 3) like k, got shapes {d.shape} and {r.shape}")
+    if np.any(np.linalg.norm(d, axis=-1) == 0):
+        raise StiffnessError("directions: a spring axis has zero length (expected non-zero "
+                             "directions)")
     N = plucker(d, r)
     return stiffness_matrix(np.swapaxes(N, -1, -2), k)
 

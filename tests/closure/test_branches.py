@@ -120,3 +120,24 @@ def test_condition_and_status_do_not_depend_on_the_world_origin():
         assert np.allclose(cond, out[0][0], rtol=1e-6, atol=0)
         assert stat == out[0][1] and sstat == out[0][2]
         assert np.abs(d4 - out[0][3]).max() < 1e-9
+
+
+@pytest.mark.parametrize("far", [1e3, 1e5])
+def test_a_six_loop_platform_far_from_the_origin_closes_with_the_same_figures(far):
+    """A 6-UPS (five loops) moved 1 km and 100 km from the world origin: its rounding floor
+    grows with the distance (tolerances scale with 1 + |centre| / scale), so every pose still
+    closes, with the same condition numbers to 1e-6."""
+    from closure import exp_so3
+    from linkwright.references import ups_platform
+    a, b = np.radians([0, 100, 120, 220, 240, 340]), np.radians([40, 80, 160, 200, 280, 320])
+    base = np.c_[0.8 * np.cos(a), 0.8 * np.sin(a), np.zeros(6)]
+    plat = np.c_[0.4 * np.cos(b), 0.4 * np.sin(b), np.zeros(6)]
+    T0 = np.eye(4)
+    T0[:3, 3] = [0.02, 0.01, 0.7]
+    x = np.random.default_rng(4).normal(size=(6, 6)) * 0.02
+    near = ups_platform(base, plat, T0).solve(x)
+    moved = ups_platform(base, plat, T0, exp_so3(np.r_[0.4, -0.9, 1.3]),
+                         far * np.r_[0.36, -0.48, 0.8]).solve(x)
+    assert (near.status == 0).all() and (moved.status == 0).all()
+    assert np.allclose(moved.condition, near.condition, rtol=1e-6)
+    assert np.allclose(moved.q, near.q, atol=1e-9 * far)

@@ -15,11 +15,6 @@ from .census import PACKAGES, classify_bad, classify_valid
 #: once the case is fixed, as a reminder to take it out of this set (then the set is empty
 #: and every case must be clear).
 KNOWN_OPEN = {
-    # stiffness.spring_stiffness([1.0], [[0, 0, 0]], [[0, 0, 0]]): StiffnessError
-    # "n: direction n has zero length" names `n`, not the argument `directions`
-    "stiffness.spring_stiffness:directions=zero",
-    # Hexapod.stiffness_batch(T, cond="no"): accepted (a truthy string), no error
-    "stiffness.Hexapod.stiffness_batch:cond=str",
     # an approx study with [cylinder] B = 2.0 (> B0 + B3: no assembly): exit 2 but the
     # message blames key 'approx.a' (or 'approx.n') with "d2f: not finite at x = 0.0"
     # instead of naming 'cylinder.B'

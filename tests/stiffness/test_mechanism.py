@@ -47,7 +47,7 @@ def test_6ups_equals_hexapod_P_Ktheta_Pt_at_random_poses():
     assert rel(one.K[0], hx.stiffness(T0, frame="platform").K) < 1e-10
 
 
-@pytest.mark.parametrize("far", [1e3, 1e4])
+@pytest.mark.parametrize("far", [1e3, 1e5])
 def test_origin_free_far_from_the_world_origin(far):
     """The whole model moved far away: the stiffness in a frame carried along is unchanged."""
     Q, s = exp_so3(np.r_[0.4, -0.9, 1.3]), far * np.r_[0.36, -0.48, 0.8]

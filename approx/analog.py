@@ -218,7 +218,7 @@ class TransferFunction(ABC):
         return psi * mass_moment * (psi * xdd + self.acceleration(x) * xd ** 2)
 
 
-@dataclass
+@dataclass(repr=False)
 class PiecewiseAnalog(TransferFunction):
     """A twice-integrated piecewise-linear acceleration analog.
 
@@ -266,6 +266,12 @@ class PiecewiseAnalog(TransferFunction):
     info: dict = field(default_factory=dict)
     fk: np.ndarray | None = None
     dfk: np.ndarray | None = None
+
+    def __repr__(self) -> str:
+        n = len(self.knots) - 1
+        return (f"PiecewiseAnalog({n} interval{'s' if n != 1 else ''} on "
+                f"[{self.knots[0]:.6g}, {self.knots[-1]:.6g}], {self.method}, largest error "
+                f"σ = {np.max(self.sigma):.3g}, γ = {self.gamma:.3g} ({self.gamma_rule or 'given'}))")
 
     def __post_init__(self):
         x = self.knots = np.asarray(self.knots, float)

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from closure import ClosureError, MechanismError, Pose, joint_analogs
+from closure import REACHED, ClosureError, MechanismError, Pose, joint_analogs
 
 from .analog import ApproxError, TransferFunction, as_points, as_real
 
@@ -87,8 +87,8 @@ class EngineAnalogs(TransferFunction):
         for side in (xs[xs >= x0], xs[xs < x0][::-1]):
             if side.size:
                 df, pose = mechanism.sweep(np.r_[x0, side], return_pose=True)
-                if (df.status != "ok").any():
-                    bad = df[df.status != "ok"].iloc[0]
+                if not df.status.isin(REACHED).all():
+                    bad = df[~df.status.isin(REACHED)].iloc[0]
                     raise ApproxError(f"a, b: the mechanism cannot be driven from its assembly "
                                       f"input {x0} through [{a}, {b}]: stopped at x = "
                                       f"{bad.filter(like='reached').iloc[0]} ({bad.status})")

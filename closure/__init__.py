@@ -8,6 +8,7 @@ Main names
 ----------
 Mechanism            links, joints, inputs; ``solve``, ``sweep``, analogs
 Pose                 a solved batch of poses with residual, iterations, condition
+STATUS, REACHED      the status codes of a pose; the statuses of poses that closed
 frame_from_points    a joint frame from three points (seed 000's rule)
 transform, inverse, exp_se3, log_se3, rot_x, rot_y, rot_z, rotation, skew
 MechanismError       bad input (a ValueError)
@@ -22,11 +23,11 @@ from .frames import (ad, adjoint, cross, euler_zxz, exp_se3, exp_so3, frame_from
 from .joints import JOINT_KINDS, Joint
 from .kinematics import analogs, joint_analogs, point_analogs
 from .mechanism import Mechanism
-from .pose import Pose
+from .pose import REACHED, STATUS, Pose
 from .solver import SolverOptions, solve, sweep
 
 __all__ = [
-    "Mechanism", "Pose", "Joint", "JOINT_KINDS", "SolverOptions", "MechanismError",
+    "Mechanism", "Pose", "STATUS", "REACHED", "Joint", "JOINT_KINDS", "SolverOptions", "MechanismError",
     "ClosureError", "solve", "sweep", "analogs", "joint_analogs", "point_analogs",
     "frame_from_points", "transform", "translation", "inverse", "exp_se3", "log_se3",
     "exp_so3", "log_so3", "rot_x", "rot_y", "rot_z", "rotation", "skew", "hat", "vee",

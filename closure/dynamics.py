@@ -30,7 +30,7 @@ from .errors import ClosureError, MechanismError
 from .checks import real_number
 from .frames import as_array, as_index, as_number, cross, skew
 from .kinematics import _bias, analogs, link_twists
-from .pose import Pose
+from .pose import REACHED, Pose
 from .solver import TANGENT_COND, SolverOptions, _take_pose
 
 __all__ = ["Body", "Dynamics", "pseudo_inertia"]
@@ -322,7 +322,7 @@ class Dynamics:
         x, xd, xdd = arrays
         df, pose = self.m.sweep(x, return_pose=True)
         if len(pose) != t.size:
-            bad = df[df.status != "ok"].iloc[0]
+            bad = df[~df.status.isin(REACHED)].iloc[0]
             raise ClosureError(f"inverse: the motion cannot be followed past row {bad.name} "
                                f"({bad.status}, condition {bad.condition:.2e})")
         M, h, Q, _ = self.terms(pose, xd, t)

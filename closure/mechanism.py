@@ -520,21 +520,25 @@ class Mechanism:
         return r.reshape(r.shape[0], -1)
 
     # ------------------------------------------------------------ solving
-    def solve(self, inputs, guess=None, **kw):
-        """Solve the loops for one input value or a batch: see :func:`closure.solve`."""
+    def solve(self, inputs, guess=None, *, options=None, raise_on_failure: bool = True,
+              continuation: bool = True):
+        """Solve the loops for one input value or a batch: see :func:`closure.solve`
+        (same arguments; returns a :class:`Pose`)."""
         from .solver import solve
         inputs = as_array(inputs, "inputs", finite=False)   # the solver checks shape and values
         if inputs.size == 0:
             raise MechanismError("inputs: empty; expected at least one input value")
-        return solve(self, inputs, guess, **kw)
+        return solve(self, inputs, guess, options=options, raise_on_failure=raise_on_failure,
+                     continuation=continuation)
 
-    def sweep(self, values, guess=None, **kw):
-        """Continuation along the inputs into a table: see :func:`closure.sweep`."""
+    def sweep(self, values, guess=None, *, options=None, return_pose: bool = False):
+        """Continuation along the inputs into a table: see :func:`closure.sweep` (same
+        arguments; returns a DataFrame, and the reached poses with ``return_pose=True``)."""
         from .solver import sweep
         values = as_array(values, "values", finite=False)   # the solver checks shape and values
         if values.size == 0:
             raise MechanismError("values: empty; expected at least one input value")
-        return sweep(self, values, guess, **kw)
+        return sweep(self, values, guess, options=options, return_pose=return_pose)
 
     def analogs(self, pose, second: bool = True):
         """First- and second-order transfer functions: see :func:`closure.analogs`."""

@@ -9,13 +9,15 @@ import pandas as pd
 from .errors import MechanismError
 from .frames import as_array
 
-__all__ = ["Pose"]
+__all__ = ["Pose", "STATUS", "REACHED"]
 
 #: status codes of a solved pose
 STATUS = {0: "ok", 1: "near-singular", 2: "no convergence", 3: "no assembly", 4: "dead point"}
+#: the statuses of a pose that closed (a sweep's rows with a pose)
+REACHED = ("ok", "near-singular")
 
 
-@dataclass
+@dataclass(repr=False)
 class Pose:
     """A batch of solved poses (or the assembly pose).
 
@@ -32,6 +34,8 @@ class Pose:
         the mechanism's length scale (the largest joint distance from the
         joints' centroid).
     iterations : numpy.ndarray, shape (B,)
+        Newton iterations spent reaching each pose from its start (the guess, or the
+        previous row of a sweep), over every internal step of the continuation.
     condition : numpy.ndarray, shape (B,)
         Condition number of the (dimensionless) Jacobian of the unknowns,
         over its expected rank (idle freedoms excluded).
@@ -72,6 +76,21 @@ class Pose:
             ks = self.mechanism.kinematic_state(self.state, twists=twists)
             self._ks = ks
         return ks
+
+    def __repr__(self) -> str:
+        B = len(self)
+        m = self.mechanism
+        counts = pd.Series(self.status_text).value_counts()
+        parts = [f"{B} pose{'s' if B != 1 else ''} of a mechanism with {len(m.links)} links, "
+                 f"{len(m.joints)} joints"]
+        for k, lab in enumerate(m.input_labels()):
+            x = self.inputs[:, k]
+            parts.append(f"input {lab} {x.min():.6g}" + (f" … {x.max():.6g}" if B > 1 else ""))
+        if B:
+            parts.append(f"residual ≤ {np.max(self.residual):.1e}, condition "
+                         f"{np.min(self.condition):.3g} … {np.max(self.condition):.3g}")
+        parts.append("status: " + ", ".join(f"{n} {s}" for s, n in counts.items()))
+        return "Pose(" + "; ".join(parts) + ")"
 
     @property
     def ok(self) -> np.ndarray:

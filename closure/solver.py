@@ -387,7 +387,7 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
     q, rot = start.q.copy(), start.rot.copy()
     x_cur = x_from.copy()
     res, cond = start.residual.astype(float).copy(), start.condition.astype(float).copy()
-    its = start.iterations.astype(int).copy()
+    its = np.zeros(B, dtype=int)                              # this path's iterations only
     ks_all = _ks_take(start.kinematics(), np.arange(B))       # a copy: updated in place
     first = np.zeros((B, t.nv, x_from.shape[1]))
     have = np.zeros(B, dtype=bool)
@@ -398,7 +398,7 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
     lam, h = np.zeros(B), np.ones(B)
     stop = np.zeros(B, dtype=int)
     active = span_s > 0
-    step_opts = opts.replace(maxiter=min(opts.maxiter, 15))
+    step_opts = opts.replace(maxiter=min(opts.maxiter, 8))
     from .kinematics import analogs   # local: kinematics imports solver helpers
     while active.any():
         a = np.nonzero(active)[0]
@@ -573,9 +573,11 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
     -------
     pandas.DataFrame
         Columns ``input:<label>`` for every input, one per joint coordinate
-        (``coordinate_labels()``), ``residual``, ``condition``, ``iterations``,
-        ``status`` and ``reached:<label>`` (the input actually reached: differs
-        from the requested one on a stopped row).
+        (``coordinate_labels()``), ``residual``, ``condition``, ``iterations`` (the
+        Newton iterations from the previous row), ``status`` ("ok", "near-singular"
+        where the condition exceeds the limit, or why the path stopped: see
+        :data:`closure.REACHED`) and ``reached:<label>`` (the input actually reached:
+        differs from the requested one on a stopped row).
     Pose
         Only with ``return_pose=True``: the poses of the rows that were reached
         (for velocities, accelerations and analogs along the path).
@@ -584,7 +586,7 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
     return_pose = _flag(return_pose, "return_pose")
     x, _ = _inputs_array(mech, values, "values")
     cur = solve(mech, x[0], guess, options=opts, raise_on_failure=False)
-    poses, status = [cur], [cur.status_text[0] if cur.status[0] >= 2 else "ok"]
+    poses, stops = [cur], [cur.status_text[0] if cur.status[0] >= 2 else None]
     stopped = cur.status[0] >= 2
     tangent = None
     for i in range(1, x.shape[0]):
@@ -593,15 +595,16 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
         nxt, stop, tangent = _continue(mech, cur, x[i][None], opts, tangent=tangent)
         poses.append(nxt)
         if stop[0]:
-            status.append(STATUS[int(stop[0])])
+            stops.append(STATUS[int(stop[0])])
             stopped = True
             break
-        status.append("ok")
+        stops.append(None)
         cur = nxt
     n = len(poses)
     pose = _cat_poses(poses)
     reached, pose.inputs = pose.inputs, x[:n].copy()
     pose.status = _status(mech, pose.residual, pose.condition, np.ones(n, bool), opts)
+    status = [s if s is not None else STATUS[int(c)] for s, c in zip(stops, pose.status)]
     df = pose.table()
     df["status"] = status
     for k, lab in enumerate(mech.input_labels()):
@@ -611,7 +614,7 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
         rest["status"] = "not reached"
         df = pd.concat([df, rest], ignore_index=True)
     if return_pose:
-        return df, _take_pose(pose, np.nonzero(np.array(status) == "ok")[0])
+        return df, _take_pose(pose, np.nonzero([s is None for s in stops])[0])
     return df
 
 

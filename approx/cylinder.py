@@ -58,7 +58,7 @@ def dpsi31(q1, b=B, b0=B0, b3=B3):
     u = _u(q1, b, b0, b3)
     s = 4 - u ** 2
     with np.errstate(invalid="ignore", divide="ignore"):   # NaN / inf past the dead point
-            return 2 / (b0 * b3) * s ** -0.5 + 4 * (b + q1) ** 2 * u / (b0 * b3) ** 2 * s ** -1.5
+        return 2 / (b0 * b3) * s ** -0.5 + 4 * (b + q1) ** 2 * u / (b0 * b3) ** 2 * s ** -1.5
 
 
 def drive_law(t, tau=TAU, stroke=0.3):

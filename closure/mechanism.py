@@ -66,7 +66,7 @@ class Mechanism:
     >>> m = Mechanism(["crank", "coupler", "rocker"])
     >>> pts = {"A": (0, 0, 0), "B": (0, 1, 0), "C": (3, 2, 0), "D": (3, 0, 0)}
     >>> for name, a, b, p in [("A", "ground", "crank", "A"), ("B", "crank", "coupler", "B"),
-    ...                       ("C", "coupler", "rocker", "C"), ("D", "rocker", "ground", "D")]:
+    ...                       ("C", "coupler", "rocker", "C"), ("D", "ground", "rocker", "D")]:
     ...     _ = m.add_joint(name, "R", a, b, at=transform(None, pts[p]))
     >>> m.add_input("A")
     >>> pose = m.solve(0.3)

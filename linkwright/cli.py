@@ -27,6 +27,10 @@ from .interrupt import catch_signals
 
 STUDY_COMMANDS = ("synth", "stiffness", "approx", "analyze")
 
+QUIET_HELP = ("no progress messages or bars on stderr and no summary line on stdout "
+              "(warnings and errors are still printed; --json still prints the summary). "
+              "Progress is shown only when stderr is a terminal.")
+
 
 def _commands():
     from . import cmd_analyze, cmd_approx, cmd_stiffness, cmd_synth
@@ -53,7 +57,7 @@ def _parser():
                            "type or a value out of range exits 2 naming the file and the key.")
         s.add_argument("study", help="the study file (TOML)")
         s.add_argument("-o", "--out", help="output folder (default: linkwright-out/<study>)")
-        s.add_argument("--quiet", action="store_true", help="no progress on stderr")
+        s.add_argument("--quiet", action="store_true", help=QUIET_HELP)
         s.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     sc = sub.add_parser("schema", help="print the reference of a study kind: every key "
                                        "with its type, unit, default, meaning and example",
@@ -71,8 +75,8 @@ def _parser():
     d.add_argument("-o", "--out", default="linkwright-demo", help="output folder")
     d.add_argument("--examples", help="folder of study files (default: the studies shipped "
                                       "with linkwright; see `linkwright examples`)")
-    d.add_argument("--quiet", action="store_true")
-    d.add_argument("--json", action="store_true")
+    d.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+    d.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     e = sub.add_parser("examples", help="list the shipped example studies, or copy them "
                                         "into a new folder with -o")
     e.add_argument("-o", "--out", help="copy the studies and example scripts into this new "
@@ -82,6 +86,8 @@ def _parser():
     b.add_argument("modules", nargs="*", help="closure, synthesis, stiffness, mechanism, approx, dynamics")
     b.add_argument("--quick", action="store_true", help="smaller problem sizes")
     b.add_argument("-o", "--out", help="also write the tables to OUT/bench.md")
+    b.add_argument("--quiet", action="store_true", help="no progress bar on stderr (the "
+                                                        "tables are still printed)")
     return p
 
 
@@ -188,9 +194,24 @@ def _dispatch(args, state: dict) -> int:
     if args.json:
         print(json.dumps(jsonable(summary), indent=2, allow_nan=False))
     elif not args.quiet:
-        print(f"linkwright {args.command}: " + ", ".join(
-            f"{k}={v}" for k, v in summary.items() if k not in ("command", "files")))
+        print(f"linkwright {args.command}: " + summary_line(summary))
     return 0
+
+
+def summary_line(summary: dict) -> str:
+    """The summary as one line: quantities with their units (``kt_min = 2.027e+07 N/m``)."""
+    from .render import fmt_num, fmt_q
+
+    def show(v):
+        if isinstance(v, dict) and set(v) == {"value", "unit"}:
+            return "n/a" if v["value"] is None else fmt_q(v["value"], v["unit"])
+        if isinstance(v, dict):
+            return "{" + ", ".join(f"{k}: {show(x)}" for k, x in v.items()) + "}"
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(show(x) for x in v) + "]"
+        return "none" if v is None else fmt_num(v) if isinstance(v, float) else str(v)
+    return ", ".join(f"{k} = {show(v)}" for k, v in summary.items()
+                     if k not in ("command", "files", "results"))
 
 
 @contextlib.contextmanager
@@ -272,13 +293,20 @@ def _bench(args, state: dict) -> int:
         out.check()
     modules = list(args.modules or BENCHES)
     texts, failed = [], []
-    for name, text, error in stream(modules, args.quick):
-        print(text, flush=True)
+    from .output import Progress
+    bar = Progress(getattr(args, "quiet", False)).bar(total=len(modules), desc="bench",
+                                                      unit="module")
+    bar.set_postfix_str(modules[0] if modules else "")
+    for i, (name, text, error) in enumerate(stream(modules, args.quick)):
+        bar.write(text)                      # above the bar (stdout), flushed
+        bar.update(1)
+        bar.set_postfix_str(modules[i + 1] if i + 1 < len(modules) else "")
         texts.append(text)
         if error is not None:
             failed.append(name)
             print(f"linkwright: bench {name} failed: {type(error).__name__}: {error}",
                   file=sys.stderr, flush=True)
+    bar.close()
     if out is not None:
         out.add("bench.md", "\n".join(texts))
         out.commit()

@@ -5,10 +5,11 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from closure import ClosureError, point_analogs
+from closure import REACHED, ClosureError, point_analogs
 
-from .mechspec import build_dynamics, build_mechanism, sweep_values
-from .output import Outputs, Report
+from .mechspec import build_dynamics, build_mechanism, coordinate_unit, sweep_values
+from .output import Outputs
+from .render import DIMENSIONLESS, Report, fmt_num, fmt_q, quantity
 from .study import Study
 
 
@@ -22,7 +23,7 @@ def run(study: Study, out: Outputs, progress) -> dict:
         if len(poses) else pd.DataFrame()
     acc = pd.DataFrame(second[:, :, 0, 0], columns=[f"dd:{c}" for c in mech.velocity_labels()]) \
         if len(poses) else pd.DataFrame()
-    ok = df.status == "ok"
+    ok = df.status.isin(REACHED)          # the rows with a pose (ok or near-singular)
     table = df.copy()
     for frame in (vel, acc):
         for c in frame.columns:
@@ -40,27 +41,103 @@ def run(study: Study, out: Outputs, progress) -> dict:
                 table.loc[ok, f"{name}.dd{ax}"] = d2[:, k, 0, 0]
     out.add_csv("sweep.csv", table)
     lab = mech.input_labels()[0]
+    iu = coordinate_unit(mech, lab)
+    coords = mech.coordinate_labels()
+    cu = {c: coordinate_unit(mech, c) for c in coords}
     rep = Report("Mechanism analysis")
-    rep.text(f"Study: {study.path.name}. {len(mech.links)} links, {len(mech.joints)} joints, "
-             f"{mech.n_loops} loops, mobility {mech.mobility}; {int(ok.sum())} of {len(df)} "
-             f"poses closed; largest residual {df.residual.max():.2e}, largest condition "
-             f"{df.condition.max():.3g}.")
-    bad = df[~ok]
-    if len(bad):
-        rep.text(f"The sweep stopped: {bad.status.iloc[0]} near input "
-                 f"{bad.filter(like='reached').iloc[0].iloc[0] if bad.filter(like='reached').size else '?'}.")
-    rep.heading("Sweep (joint values: rad or m; analogs per unit input)")
-    rep.table(table[[f"input:{lab}"] + mech.coordinate_labels() + ["residual", "condition",
-                                                                      "status"]])
 
-    def plot_joints(ax):
-        for c in mech.coordinate_labels():
-            ax.plot(table[f"input:{lab}"][ok], table[c][ok], label=c)
-        ax.set_xlabel(f"input {lab}")
-        ax.legend(fontsize=7)
-    rep.figure("joints.png", plot_joints)
+    def span(values, unit):
+        v = np.asarray(values, float)
+        v = v[np.isfinite(v)]
+        if not v.size:
+            return "none"
+        v = np.where(np.abs(v) <= 1e-9 * max(1.0, float(np.abs(v).max())), 0.0, v)
+        if unit == "rad":
+            return f"{fmt_num(np.degrees(v.min()))} to {fmt_num(np.degrees(v.max()))} deg"
+        return f"{fmt_num(v.min())} to {fmt_num(v.max())} {unit}"
+    xin = table[f"input:{lab}"][ok]
+    statuses = df.status.value_counts()
+    bad = df[~ok]
+    moved = [c for c in coords if np.ptp(table[c][ok].to_numpy(float)) > 1e-9] if ok.any() else []
+    dead = ""
+    if len(bad):
+        reached = bad.filter(like="reached")
+        where = (f" near input {fmt_q(reached.iloc[0].iloc[0], iu)}" if reached.size and
+                 np.isfinite(reached.iloc[0].iloc[0]) else "")
+        dead = f"the sweep stopped: {bad.status.iloc[0]}{where}"
+    rep.findings(
+        f"Range of motion: input {lab} {span(xin, iu)} ({int(ok.sum())} of {len(df)} poses "
+        f"closed); " + "; ".join(f"{c} {span(table[c][ok], cu[c])}" for c in moved[:8])
+        + (f"; and {len(moved) - 8} more coordinates" if len(moved) > 8 else "") + ".",
+        "Dead points met: " + (dead if dead else "none") + " (statuses: " +
+        ", ".join(f"{k}: {int(v)}" for k, v in statuses.items()) + ").",
+        f"Largest condition number of the loop equations: {fmt_num(df.condition.max())} "
+        f"(large near a singular pose); largest closure residual {fmt_num(df.residual.max(), 2)}.")
+    rep.text(f"Study: {study.path.name}. {len(mech.links)} links, {len(mech.joints)} joints, "
+             f"{mech.n_loops} loops, mobility {mech.mobility}. Joint angles in rad, slides in m "
+             "(plotted in deg and m).")
+    rep.heading("Sweep")
+    units = {f"input:{lab}": iu, **cu, "residual": DIMENSIONLESS, "condition": DIMENSIONLESS}
+    rep.table(table[[f"input:{lab}"] + coords + ["residual", "condition", "status"]],
+              units=units)
+    ang = [c for c in coords if cu[c] == "rad"]
+    lin = [c for c in coords if cu[c] == "m"]
+    xplot = np.degrees(xin) if iu == "rad" else xin
+    xlabel = f"input {lab} ({'deg' if iu == 'rad' else 'm'})"
+    panels = [(cs, u) for cs, u in ((ang, "deg"), (lin, "m")) if cs]
+    if panels:
+        def plot_joints(axes):
+            axes = np.atleast_1d(axes)
+            for ax, (cs, u) in zip(axes, panels):
+                for c in cs:
+                    y = table[c][ok].to_numpy(float)
+                    ax.plot(xplot, np.degrees(y) if u == "deg" else y, label=c)
+                ax.set_ylabel(f"joint {'angles' if u == 'deg' else 'slides'} ({u})")
+                ax.set_xlabel(xlabel)
+                ax.legend(fontsize=7, ncol=2)
+        rep.figure("joints.png", plot_joints, nrows=len(panels))
     summary = {"command": "analyze", "poses": int(len(df)), "closed": int(ok.sum()),
-               "max_residual": float(df.residual.max()), "max_condition": float(df.condition.max())}
+               "input_range": quantity([float(xin.min()), float(xin.max())] if ok.any()
+                                       else [], iu),
+               "dead_point": dead or None,
+               "statuses": {str(k): int(v) for k, v in statuses.items()},
+               "max_residual": quantity(float(df.residual.max()), DIMENSIONLESS),
+               "max_condition": quantity(float(df.condition.max()), DIMENSIONLESS)}
+    if points and ok.any():
+        rep.heading("Point paths")
+        rows = []
+        for p in points:
+            name = p.get("name", "str")
+            P = table.loc[ok, [f"{name}.x", f"{name}.y", f"{name}.z"]].to_numpy(float)
+            rows.append({"point": name, "link": p.get("link", "str"),
+                         "x min": P[:, 0].min(), "x max": P[:, 0].max(),
+                         "y min": P[:, 1].min(), "y max": P[:, 1].max(),
+                         "z min": P[:, 2].min(), "z max": P[:, 2].max(),
+                         "path length": float(np.linalg.norm(np.diff(P, axis=0), axis=1).sum())})
+        rep.table(pd.DataFrame(rows), "{:.5g}", units={k: "m" for k in rows[0]
+                                                       if k not in ("point", "link")})
+
+        def plot_points(axes):
+            ax1, ax2 = axes
+            paths = {p.get("name", "str"): table.loc[ok, [f"{p.get('name', 'str')}.{c}"
+                                                          for c in "xyz"]].to_numpy(float)
+                     for p in points}
+            spread = np.max([np.ptp(P, axis=0) for P in paths.values()], axis=0)
+            i, j = sorted(int(k) for k in np.argsort(spread)[::-1][:2])
+            for name, P in paths.items():
+                ax1.plot(P[:, i], P[:, j], label=name)
+                for k in range(3):
+                    ax2.plot(xplot, P[:, k], label=f"{name}.{'xyz'[k]}")
+            ax1.set_xlabel(f"{'xyz'[i]} (m)")
+            ax1.set_ylabel(f"{'xyz'[j]} (m)")
+            ax1.set_aspect("equal", adjustable="datalim")
+            ax1.set_title("point paths")
+            ax1.legend(fontsize=7)
+            ax2.set_xlabel(xlabel)
+            ax2.set_ylabel("point coordinates (m)")
+            ax2.legend(fontsize=7, ncol=3)
+        rep.figure("points.png", plot_points, nrows=2)
+        summary["points"] = [r["point"] for r in rows]
     dsec = study.section("dynamics", required=False)
     if dsec is not None:
         d = build_dynamics(dsec, mech)
@@ -77,15 +154,20 @@ def run(study: Study, out: Outputs, progress) -> dict:
         except ClosureError as e:
             raise dsec.error("duration", f"the motion cannot be followed: {e}") from None
         out.add_csv("drive.csv", inv)
-        rep.heading(f"Drive force for the motion {a:.4g} → {b:.4g} in {T} s "
-                    "(x = a + (b − a)(t/T − sin(2πt/T)/2π))")
-        rep.table(inv[["t", lab, f"drive:{lab}", "residual"]])
+        du = "N·m" if iu == "rad" else "N"
+        rep.heading("Drive force for the motion x = a + (b − a)(t/T − sin(2πt/T)/2π)")
+        rep.text(f"From a = {fmt_q(a, iu)} to b = {fmt_q(b, iu)} in T = {fmt_q(T, 's')}.")
+        rep.table(inv[["t", lab, f"drive:{lab}", "residual"]],
+                  units={"t": "s", lab: iu, f"drive:{lab}": du, "residual": DIMENSIONLESS})
+        peak = float(np.abs(inv[f"drive:{lab}"]).max())
+        rep.findings(f"Drive {'torque' if iu == 'rad' else 'force'} for the motion in "
+                     f"{fmt_q(T, 's')}: peak {fmt_q(peak, du)}.")
 
         def plot_drive(ax):
             ax.plot(inv.t, inv[f"drive:{lab}"])
             ax.set_xlabel("t (s)")
-            ax.set_ylabel(f"drive {lab} (N or N·m)")
+            ax.set_ylabel(f"drive {lab} ({du})")
         rep.figure("drive.png", plot_drive)
-        summary["max_drive"] = float(np.abs(inv[f"drive:{lab}"]).max())
+        summary["max_drive"] = quantity(peak, du)
     rep.add_to(out)
     return summary

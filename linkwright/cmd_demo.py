@@ -53,7 +53,9 @@ def run_demo(folder, out, commands: dict, progress) -> dict:
     ex = find_examples(folder)
     rows = []
     studies = [load_study(path) for path in examples.studies(ex)]   # all checked first
-    for path, study in zip(examples.studies(ex), studies):
+    pairs = list(zip(examples.studies(ex), studies))
+    bar = progress.bar(pairs, desc="demo", unit="study") if hasattr(progress, "bar") else pairs
+    for path, study in bar:
         cmd = study.command
         title = study.section("study").get("title", "str", path.stem)
         progress(f"{path.name}: {cmd}")
@@ -65,9 +67,9 @@ def run_demo(folder, out, commands: dict, progress) -> dict:
     h = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>linkwright demo</title>"
          "</head><body><h1>linkwright demo</h1><table border='1'><tr><th>study</th>"
          "<th>command</th><th>summary</th></tr>"]
+    from .cli import summary_line
     for stem, title, cmd, summ in rows:
-        brief = ", ".join(f"{k} = {v:.3g}" if isinstance(v, float) else f"{k} = {v}"
-                          for k, v in summ.items() if k != "command")
+        brief = summary_line(summ)
         md.append(f"| [{title}]({stem}/report.md) | {cmd} | {brief} |")
         h.append(f"<tr><td><a href='{stem}/report.html'>{html.escape(title)}</a></td>"
                  f"<td>{cmd}</td><td>{html.escape(brief)}</td></tr>")
@@ -76,4 +78,5 @@ def run_demo(folder, out, commands: dict, progress) -> dict:
     out.add("index.html", "\n".join(h))
     if own:
         out.commit()
-    return {"command": "demo", "studies": [r[0] for r in rows], "out": str(out.folder)}
+    return {"command": "demo", "studies": [r[0] for r in rows], "out": str(out.folder),
+            "results": {r[0]: r[3] for r in rows}}

@@ -6,12 +6,13 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from closure import exp_so3
+from closure import exp_so3, log_so3
 from stiffness import (Hexapod, SingularPoseError, SingularPoseWarning, StiffnessError,
                        stiffness_indices)
-from stiffness.report import _fmt_value
+from stiffness.matrices import compliance_of
 
-from .output import Outputs, Report
+from .output import Outputs
+from .render import DIMENSIONLESS, Report, fmt_list, fmt_num, fmt_q, quantity, varying_axes
 from .study import Study, StudyError
 
 
@@ -94,39 +95,7 @@ def _report(study: Study, out: Outputs, progress, hx: Hexapod, T) -> dict:
         raise study.error("pose", str(e)) from None
     if not res.cond_P <= hx.singular_cond:
         raise _singular(study, hx, T, res.cond_P)
-    K = res.K
-    cols = ["dx", "dy", "dz", "tx", "ty", "tz"]
-    out.add_csv("stiffness.csv", pd.DataFrame(K, columns=cols).assign(
-        row=["fx", "fy", "fz", "mx", "my", "mz"]))
-    rep = Report("Hexapod stiffness report")
-    rep.text(f"Study: {study.path.name}. Wrench W = (f, m) in N, N·m; displacement Δ = (δ, θ) "
-             "in m, rad (seed 003). K is the unloaded (congruence) stiffness P Kθ Pᵀ.")
-    rep.heading("Pose and frame")
-    rep.text(f"Platform origin {np.round(T[:3, 3], 6).tolist()} m; reference point "
-             f"{np.round(np.atleast_1d(res.reference), 6).tolist()} m ({frame} frame); "
-             f"cond(P) = {res.cond_P:.4g}.")
-    rep.heading("Stiffness matrix (blocks N/m, N/rad, N·m/rad)")
-    rep.table(pd.DataFrame(K, columns=["δx", "δy", "δz", "θx", "θy", "θz"]), "{:.4e}")
-    idx = stiffness_indices(K)
-    kt = idx.value[0]
-    rep.heading("Indices")
-    rep.table(idx.assign(value=idx.value.map(_fmt_value)))
-    summary = {"command": "stiffness", "frame": frame, "cond_P": float(res.cond_P),
-               "kt_min": float(kt[0]), "kt_max": float(kt[-1])}
-    if wrench is not None:
-        with warnings.catch_warnings(record=True) as caught:
-            warnings.simplefilter("always", SingularPoseWarning)
-            tau = hx.leg_forces(T, wrench)
-            d = hx.deflection(T, wrench)
-        for w in sorted({str(w.message) for w in caught}):
-            study.warn("pose", w)
-        lf = pd.DataFrame({"leg": np.arange(1, tau.size + 1), "force_N": tau})
-        out.add_csv("leg_forces.csv", lf)
-        rep.heading("Load case (wrench about the base origin)")
-        rep.table(lf)
-        rep.text(f"Deflection about the base origin: δ = {np.array2string(d[:3], precision=5)} m, "
-                 f"θ = {np.array2string(d[3:], precision=5)} rad.")
-        summary["max_leg_force"] = float(np.abs(tau).max())
+    positions = None
     msec = study.section("map", required=False)
     if msec:
         xs, ys, zs = (_axis(msec, k) for k in ("x", "y", "z"))    # each count checked first
@@ -138,24 +107,201 @@ def _report(study: Study, out: Outputs, progress, hx: Hexapod, T) -> dict:
         xs = xs if xs is not None else np.array([T[0, 3]])
         ys = ys if ys is not None else np.array([T[1, 3]])
         zs = zs if zs is not None else np.array([T[2, 3]])
-        pos = np.array(np.meshgrid(xs, ys, zs, indexing="ij")).reshape(3, -1).T
-        progress(f"stiffness map over {len(pos)} poses")
-        mp = hx.map(pos, None)
-        out.add_csv("map.csv", mp)
-        rep.heading(f"Map over {len(mp)} positions (about the {mp.attrs['reference']})")
-        rep.table(mp.describe().loc[["min", "max"], ["kt_min", "kt_max", "cr_max", "cond_P"]]
-                  .reset_index())
-        sl = mp[mp.z == mp.z.iloc[0]]
-
-        def heat(ax):
-            g = sl.pivot_table(index="y", columns="x", values="kt_min")
-            m = ax.pcolormesh(g.columns, g.index, g.to_numpy(), shading="auto")
-            ax.figure.colorbar(m, ax=ax, label="kt_min (N/m)")
-            ax.set_xlabel("x (m)")
-            ax.set_ylabel("y (m)")
-            ax.set_title(f"smallest translational stiffness, z = {sl.z.iloc[0]:.3g} m")
-        rep.figure("map.png", heat)
-        summary["map_poses"] = int(len(mp))
-        summary["map_singular"] = int(mp.singular.sum())
+        positions = np.array(np.meshgrid(xs, ys, zs, indexing="ij")).reshape(3, -1).T
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", SingularPoseWarning)
+        rep, tables, summary = stiffness_report(
+            hx, T, res, frame_name=frame, wrench=wrench, positions=positions,
+            title=study.section("study").get("title", "str", "Hexapod stiffness report"),
+            source=f"Study: {study.path.name}.", progress=progress)
+    for w in sorted({str(w.message) for w in caught
+                     if issubclass(w.category, SingularPoseWarning)}):
+        study.warn("pose", w)
+    for w in caught:                                   # any other warning: passed on
+        if not issubclass(w.category, SingularPoseWarning):
+            warnings.warn(w.message, w.category, stacklevel=2)
+    for name, df in tables.items():
+        out.add_csv(name, df)
     rep.add_to(out)
     return summary
+
+
+def map_chunked(hx: Hexapod, positions, rotations, progress=None, chunk: int = 4096):
+    """:meth:`Hexapod.map` in chunks of positions, with a progress bar on a terminal."""
+    positions = np.asarray(positions, float)
+    if not hasattr(progress, "bar") or len(positions) <= chunk:
+        return hx.map(positions, rotations)
+    parts = []
+    with progress.bar(total=len(positions), desc="stiffness map", unit="pose") as bar:
+        for i in range(0, len(positions), chunk):
+            parts.append(hx.map(positions[i:i + chunk], rotations))
+            bar.update(len(parts[-1]))
+    mp = pd.concat(parts, ignore_index=True)
+    mp.attrs = dict(parts[0].attrs)
+    return mp
+
+
+def _directions(Kn):
+    """Eigenvalues (ascending) and unit eigenvectors (columns, largest component > 0)."""
+    w, V = np.linalg.eigh(0.5 * (Kn + Kn.T))
+    for j in range(3):
+        if V[np.argmax(np.abs(V[:, j])), j] < 0:
+            V[:, j] *= -1
+    return w, V
+
+
+def _dir(v) -> str:
+    return fmt_list(np.round(v, 3) + 0.0, 3)
+
+
+def stiffness_report(hx: Hexapod, T, res, *, frame_name: str, wrench=None, positions=None,
+                     rotations=None, title: str = "Hexapod stiffness report", source: str = "",
+                     progress=None, figures: bool = True):
+    """The stiffness report of a hexapod at pose ``T`` (shared by ``linkwright stiffness``
+    and :func:`stiffness.report`).
+
+    Parameters
+    ----------
+    hx : Hexapod
+    T : (4, 4) pose
+    res : StiffnessResult at ``T`` (in the report's frame)
+    frame_name : str
+        Words for the frame of ``res`` (``"platform"``, ``"base"``, ``"given"``).
+    wrench : (6,) or None
+        Load case about the base origin (N, N·m).
+    positions : (M, 3) or None
+        Map positions (m); the map is taken at ``rotations`` (rotation vectors, rad),
+        by default the pose's own rotation.
+    figures : bool
+        Draw the map's heat map (False: text and tables only).
+
+    Returns
+    -------
+    (Report, dict of name → DataFrame, dict)
+        The report, its CSV tables and the JSON summary (quantities with units).
+    """
+    K = res.K
+    rv = log_so3(T[:3, :3])
+    kt, V = _directions(K[:3, :3])
+    idx = stiffness_indices(K)
+    cr = idx[idx["index"] == "cr"].value.to_numpy()
+    kc = float(idx[idx["index"] == "coupling"].value.iloc[0])
+    _, Vr = _directions(compliance_of(K)[3:, 3:])
+    axes_words = "platform axes" if frame_name == "platform" else (
+        "base axes" if frame_name == "base" else "the frame's axes")
+    rep = Report(title)
+    c = float(res.cond_P)
+    health = ("far from singular" if c < 10 else "well conditioned" if c < 100 else
+              "approaching a singular pose" if c < 1e4 else "near a singular pose")
+    weak = f"along {_dir(V[:, 0])}"
+    if kt[1] - kt[0] <= 1e-3 * kt[0]:
+        weak = (f"in every direction normal to {_dir(V[:, 2])} (the two smallest "
+                f"eigenvalues agree within {fmt_num(100 * (kt[1] - kt[0]) / kt[0], 2)} %)")
+    rep.findings(
+        f"Weakest translation {weak}: kt_min = {fmt_q(kt[0], 'N/m')}; stiffest along "
+        f"{_dir(V[:, 2])}: kt_max = {fmt_q(kt[2], 'N/m')} ({fmt_num(kt[2] / kt[0], 3)} times "
+        f"stiffer); directions in the {axes_words}.",
+        f"Rotational compliance {fmt_q(cr[0], 'rad/(N·m)')} to {fmt_q(cr[-1], 'rad/(N·m)')} "
+        f"(most compliant about {_dir(Vr[:, 2])}); "
+        f"coupling ‖K_c‖ = {fmt_q(kc, 'N/rad')} about the {frame_name} reference point.",
+        f"cond(P) = {fmt_num(c)} ({health}; singular above {fmt_num(hx.singular_cond)}).")
+    rep.text((source + " " if source else "") + "Wrench W = (f, m) in N, N·m; displacement "
+             "Δ = (δ, θ) in m, rad (seed 003). K is the unloaded (congruence) stiffness "
+             "P Kθ Pᵀ.")
+    rep.heading("Pose and frame")
+    rep.table(pd.DataFrame([
+        ("platform origin (base frame)", fmt_list(T[:3, 3], 6), "m"),
+        ("platform rotation vector", fmt_list(np.degrees(rv), 6), "deg"),
+        ("reference point of K (base coordinates)", fmt_list(np.atleast_1d(res.reference), 6), "m"),
+        ("axes of K, rows of R (r' = R (r − p))", fmt_list(res.R, 6), DIMENSIONLESS),
+        ("cond(P) (moments / platform radius " + fmt_q(hx.radius, "m") + ")", fmt_num(c), DIMENSIONLESS),
+    ], columns=["quantity", "value", "unit"]))
+    rep.heading("Stiffness matrix K")
+    rep.text("Rows: wrench components (f in N, m in N·m); columns: displacement components "
+             "(δ in m, θ in rad); an entry's unit is its row's over its column's: N/m, N/rad, "
+             "N·m/m = N, N·m/rad.")
+    kdf = pd.DataFrame(K, columns=["δx (m)", "δy (m)", "δz (m)", "θx (rad)", "θy (rad)",
+                                   "θz (rad)"])
+    kdf.insert(0, "row", ["fx (N)", "fy (N)", "fz (N)", "mx (N·m)", "my (N·m)", "mz (N·m)"])
+    rep.table(kdf, "{:.4e}")
+    rep.heading("Indices")
+    rep.table(idx, "{:.5g}")
+    tables = {"stiffness.csv": pd.DataFrame(K, columns=["dx", "dy", "dz", "tx", "ty", "tz"])
+              .assign(row=["fx", "fy", "fz", "mx", "my", "mz"])}
+    summary = {"command": "stiffness", "frame": frame_name,
+               "cond_P": quantity(c, DIMENSIONLESS), "kt_min": quantity(kt[0], "N/m"),
+               "kt_max": quantity(kt[2], "N/m"),
+               "weakest_direction": quantity(np.round(V[:, 0], 6) + 0.0, DIMENSIONLESS),
+               "stiffest_direction": quantity(np.round(V[:, 2], 6) + 0.0, DIMENSIONLESS),
+               "cr_max": quantity(cr[-1], "rad/(N·m)"),
+               "most_compliant_rotation_axis": quantity(np.round(Vr[:, 2], 6) + 0.0,
+                                                        DIMENSIONLESS),
+               "coupling": quantity(kc, "N/rad")}
+    if wrench is not None:
+        W = np.asarray(wrench, float)
+        tau = hx.leg_forces(T, W)
+        d = hx.deflection(T, W)
+        lf = pd.DataFrame({"leg": np.arange(1, tau.size + 1), "force_N": tau})
+        tables["leg_forces.csv"] = lf
+        rep.heading("Load case (wrench about the base origin)")
+        rep.text(f"W = f {fmt_q(W[:3], 'N')}, m {fmt_q(W[3:], 'N·m')}; leg forces positive in "
+                 "tension.")
+        rep.table(lf.rename(columns={"force_N": "force (N)"}), "{:.5g}")
+        rep.table(pd.DataFrame([("translation δ", fmt_list(d[:3]), "m"),
+                                ("rotation θ", fmt_list(d[3:]), "rad")],
+                               columns=["deflection about the base origin", "value", "unit"]))
+        i = int(np.argmax(np.abs(tau)))
+        rep.findings(f"Under the load case: largest leg force {fmt_q(abs(tau[i]), 'N')} in "
+                     f"{'tension' if tau[i] > 0 else 'compression'} (leg {i + 1}); "
+                     f"deflection δ = {fmt_q(d[:3], 'm', 3)}, θ = {fmt_q(d[3:], 'rad', 3)}.")
+        summary["max_leg_force"] = quantity(float(np.abs(tau).max()), "N")
+        summary["deflection_translation"] = quantity(d[:3], "m")
+        summary["deflection_rotation"] = quantity(d[3:], "rad")
+    if positions is not None:
+        rots = np.atleast_2d(rv) if rotations is None else rotations   # checked by map
+        if progress is not None:
+            progress(f"stiffness map over {len(positions) * len(rots)} poses")
+        mp = map_chunked(hx, positions, rots, progress)
+        rots = mp[["rx", "ry", "rz"]].drop_duplicates().to_numpy()
+        tables["map.csv"] = mp
+        _map_section(rep, mp, hx, figures)
+        summary["map_poses"] = int(len(mp))
+        summary["map_singular"] = int(mp.singular.sum())
+        summary["map_rotation"] = quantity(np.degrees(rots[0]) if len(rots) == 1 else
+                                           np.degrees(rots), "deg")
+        summary["map_kt_min"] = quantity(float(mp.kt_min.min()), "N/m")
+    return rep, tables, summary
+
+
+def _map_section(rep: Report, mp: pd.DataFrame, hx: Hexapod, figures: bool = True) -> None:
+    units = {"kt_min": "N/m", "kt_max": "N/m", "cr_max": "rad/(N·m)", "cond_P": DIMENSIONLESS}
+    vary = varying_axes(mp)
+    rots = mp[["rx", "ry", "rz"]].drop_duplicates().to_numpy()
+    rot_text = (f"at the platform rotation vector {fmt_q(np.degrees(rots[0]), 'deg')}"
+                if len(rots) == 1 else f"over {len(rots)} rotations")
+    rep.heading("Map over poses")
+    rep.text(f"{len(mp)} poses {rot_text}; the indices are the same about any reference "
+             f"point. Varying: {', '.join(vary) or 'nothing (one pose)'}.")
+    rep.table(pd.DataFrame([(col, float(mp[col].min()), float(mp[col].max()), units[col])
+                            for col in units], columns=["index", "min", "max", "unit"]), "{:.5g}")
+    i = int(np.nanargmin(mp.kt_min.to_numpy())) if mp.kt_min.notna().any() else 0
+    where = fmt_q(mp.loc[i, ["x", "y", "z"]].to_numpy(float), "m")
+    rep.findings(f"Over the map ({len(mp)} poses {rot_text}): kt_min from "
+                 f"{fmt_q(mp.kt_min.min(), 'N/m')} (at {where}) to {fmt_q(mp.kt_min.max(), 'N/m')}; "
+                 f"{int(mp.singular.sum())} singular poses (cond(P) > {fmt_num(hx.singular_cond)}).")
+    if not vary or not figures:
+        return
+    sl, fixed = mp, ""
+    if len(vary) > 2:
+        third = vary[2]
+        sl = mp[mp[third] == mp[third].iloc[0]]
+        v = sl[third].iloc[0]
+        fixed = (f", {third} = {fmt_q(v, 'm')}" if third in "xyz"
+                 else f", {third} = {fmt_q(np.degrees(v), 'deg')}")
+    held = [f"{c} = {fmt_q(sl[c].iloc[0], 'm')}" for c in "xyz" if c not in vary]
+    if len(rots) == 1:
+        held.append(f"rotation {fmt_q(np.degrees(rots[0]), 'deg', 3)}")
+    from .render import heat_map
+    rep.figure("map.png", lambda ax: heat_map(
+        ax, sl, "kt_min", vary[0], vary[1] if len(vary) > 1 else None, "N/m",
+        title=f"smallest translational stiffness{fixed}\n({', '.join(held)})"))

@@ -5,8 +5,10 @@ import numpy as np
 import pandas as pd
 
 from synthesis import Line, Screw, SynthesisError, enumerate_dyads
+from synthesis.validate import task_scale
 
-from .output import Outputs, Report
+from .output import Outputs
+from .render import DIMENSIONLESS, Report, fmt_num, fmt_q, quantity
 from .study import Study
 
 CRITERIA = ("link_length", "axis_distance")
@@ -96,6 +98,147 @@ def _degenerate(study: Study, positions: list[Study], screws: list) -> None:
                           "dyads through them are not isolated)")
 
 
+#: a variant whose engine-verified residual exceeds this (relative to the task's size) is
+#: excluded from the ranking; below it the residual is only a check, never a rank key
+RESIDUAL_TOL = 1e-9
+#: worst Jacobian condition above which a variant counts as near a singular pose
+COND_OK = 100.0
+
+
+def _sig(v, digits: int = 4) -> float:
+    """``v`` rounded to ``digits`` significant digits (rank keys ignore round-off)."""
+    return float(f"{v:.{digits - 1}e}") if np.isfinite(v) else np.inf
+
+
+def _line(row, k):
+    return (np.array([row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"]], float),
+            np.array([row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"]], float))
+
+
+def _twist(row, k, G):
+    """The twist of joint ``k`` (1-based) moved by ``G`` (4x4): R: (u, p × u); P: (0, u);
+    None for other joints (their Jacobian columns are not tabulated here)."""
+    t = row[f"j{k}_type"]
+    u, p = _line(row, k)
+    u, p = G[:3, :3] @ u, G[:3, :3] @ p + G[:3, 3]
+    if t == "R":
+        return np.r_[u, np.cross(p, u)]
+    if t == "P":
+        return np.r_[np.zeros(3), u]
+    return None
+
+
+def _motion(kind, row, k, q):
+    """The 4x4 displacement of joint ``k`` by ``q``: a rotation about its line (R) or a
+    slide along it (P)."""
+    u, p = _line(row, k)
+    u = u / np.linalg.norm(u)
+    M = np.eye(4)
+    if kind == "R":
+        c, s = np.cos(q), np.sin(q)
+        K = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+        R = c * np.eye(3) + s * K + (1 - c) * np.outer(u, u)
+        M[:3, :3], M[:3, 3] = R, p - R @ p
+    else:
+        M[:3, 3] = q * u
+    return M
+
+
+def chain_condition(row, n_positions: int, size: float) -> float:
+    """The worst (largest) condition number, over the task's positions, of the chain's
+    Jacobian: the joints' twists (moment rows divided by the task's size, so it is
+    dimensionless) with the joints moved to each position by the variant's joint
+    values.  Large near a singular pose (axes becoming dependent), where the dyad
+    transmits motion and force poorly; NaN when the joint values are not tabulated."""
+    worst = 0.0
+    for p in range(1, n_positions + 1):
+        G = np.eye(4)
+        cols = []
+        for k in (1, 2, 3):
+            tw = _twist(row, k, G)
+            if tw is None:
+                return np.nan
+            cols.append(tw)
+            if k < 3:
+                q = row.get(f"q{k}_pos{p}", np.nan)
+                try:
+                    q = float(q)
+                except (TypeError, ValueError):
+                    return np.nan
+                if not np.isfinite(q):
+                    return np.nan
+                G = G @ _motion(row[f"j{k}_type"], row, k, q)
+        J = np.array(cols).T
+        J[3:] /= size
+        sv = np.linalg.svd(J, compute_uv=False)
+        worst = max(worst, sv[0] / sv[-1] if sv[-1] > 0 else np.inf)
+    return float(worst)
+
+
+def rank_variants(df: pd.DataFrame, kind: str, center, size: float, n_positions: int,
+                  tol: float = RESIDUAL_TOL, progress=None) -> pd.DataFrame:
+    """The variants with the design figures and the rank (1 best; NaN: excluded).
+
+    Added columns: ``criterion`` (the study's criterion, m), ``size_ratio`` (criterion /
+    task size), ``link1``, ``link2`` (common-normal lengths, m), ``offset`` (distance
+    between the feet of the two common normals on axis 2, m), ``condition`` (worst
+    Jacobian condition over the positions, :func:`chain_condition`), ``check``
+    (``ok`` or why the variant is excluded) and ``rank``.
+
+    Ranking (the residual is never a key): variants that are degenerate or whose
+    residual exceeds ``tol`` are excluded; the others are ranked first by whether they
+    stay away from singular poses (condition ≤ COND_OK), then by the size ratio, then by
+    the condition, both rounded to 4 significant digits so that round-off cannot reorder
+    them, then by variant number.
+    """
+    out = df.copy()
+    out["criterion"] = criterion_values(df, kind, center)
+    out["size_ratio"] = out.criterion / size
+    link1, link2, offset, cond = (np.full(len(df), np.nan) for _ in range(4))
+    rows = progress.bar(list(df.iterrows()), desc="ranking variants", unit="variant") \
+        if hasattr(progress, "bar") else df.iterrows()
+    reason = (out["reason"] if "reason" in out else pd.Series("", index=out.index)) \
+        .fillna("").astype(str)
+    for i, (_, r) in enumerate(rows):
+        if reason.iloc[i]:
+            continue
+        E = _elements(r)
+        link1[i], link2[i] = _distance(E[0], E[1]), _distance(E[1], E[2])
+        if all(isinstance(e, Line) for e in E):
+            a = _feet(E[0], E[1])
+            b = _feet(E[2], E[1])
+            offset[i] = float(abs(np.dot(b - a, E[1].direction))) if a is not None \
+                and b is not None else np.nan
+        cond[i] = chain_condition(r, n_positions, size)
+    out["link1"], out["link2"], out["offset"], out["condition"] = link1, link2, offset, cond
+    res = out.residual.to_numpy(float)
+    check = np.where(reason != "", "degenerate: " + reason,
+                     np.where(~np.isfinite(res), "no residual (not verified)",
+                              np.where(~(res <= tol), f"residual above {tol:g}", "ok")))
+    out["check"] = check
+    ok = out.check == "ok"
+    keys = pd.DataFrame({
+        "near_singular": ~(out.condition.fillna(0) <= COND_OK),
+        "size": [_sig(v) for v in out.size_ratio],
+        "cond": [_sig(v) for v in out.condition.fillna(0)],
+        "variant": out.variant}, index=out.index)[ok]
+    order = keys.sort_values(["near_singular", "size", "cond", "variant"]).index
+    out["rank"] = np.nan
+    out.loc[order, "rank"] = np.arange(1, len(order) + 1)
+    return out
+
+
+def _feet(a: Line, b: Line):
+    """The foot on ``b`` of the common normal of lines ``a`` and ``b`` (None if parallel)."""
+    n = np.cross(a.direction, b.direction)
+    nn = float(n @ n)
+    if nn < 1e-18:
+        return None
+    d = b.point - a.point
+    t = float(np.dot(np.cross(d, a.direction), n)) / nn
+    return b.point + t * b.direction
+
+
 def run(study: Study, out: Outputs, progress) -> dict:
     sec = study.section("synthesis")
     family = sec.get("family", "str")
@@ -121,29 +264,72 @@ def run(study: Study, out: Outputs, progress) -> dict:
     if len(df) and not (df.reason == "").any():
         raise study.error("position", "no regular dyad through these positions: "
                           f"{df.reason.iloc[0]}")
-    df["criterion"] = criterion_values(df, kind, center)
-    ranked = df.sort_values(["residual", "criterion"], na_position="last")
-    by_crit = df[df.reason == ""].sort_values("criterion")
-    out.add_csv("variants.csv", df)
+    T = [np.eye(4)] + [s.matrix() for s in screws]
+    _, extent, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
+    size = extent if extent > 0 else (reach if reach > 0 else 1.0)
+    ranked = rank_variants(df, kind, center, size, len(T), progress=progress)
+    out.add_csv("variants.csv", ranked)
+    best_rows = ranked[ranked["rank"].notna()].sort_values("rank")
+    excluded = ranked[ranked["rank"].isna()]
     rep = Report(f"{family} dyad synthesis")
-    rep.text(f"Study: {study.path.name}. {len(df)} variants, "
-             f"{int((df.reason == '').sum())} regular; largest residual of the regular ones "
-             f"{df[df.reason == ''].residual.max():.2e} (engine-verified pose error).")
-    rep.heading(f"Ranked by the design criterion: {kind}")
-    cols = [c for c in ("variant", "order", "mechanism", "rr", "member", "residual", "criterion")
-            if c in df.columns]
-    rep.table(by_crit[cols])
-    rep.heading("Ranked by residual")
-    rep.table(ranked[cols + ["reason"]])
-    rep.heading("Axes of the best variant by the criterion (first position)")
-    if len(by_crit):
-        best = by_crit.iloc[0]
+    crit_words = {"link_length": "the sum of the two links' lengths (common normals)",
+                  "axis_distance": "the largest distance of a joint from the centre "
+                                   f"{fmt_q(center, 'm')}"}[kind]
+    if len(best_rows):
+        b = best_rows.iloc[0]
+        why = (f"it stays away from singular poses (worst Jacobian condition "
+               f"{fmt_num(b.condition, 3)} ≤ {fmt_num(COND_OK)})" if b.condition <= COND_OK
+               else f"no variant stays below condition {fmt_num(COND_OK)}; its worst "
+                    f"condition is {fmt_num(b.condition, 3)}")
+        runner = ""
+        if len(best_rows) > 1:
+            s2 = best_rows.iloc[1]
+            runner = (f" The next, variant {int(s2.variant)}, has criterion "
+                      f"{fmt_q(s2.criterion, 'm')} and condition {fmt_num(s2.condition, 3)}.")
+        rep.findings(
+            f"Best variant: {int(b.variant)} (mechanism {b.mechanism}, RR solution {int(b.rr)}): "
+            f"{kind} = {fmt_q(b.criterion, 'm')}, {fmt_num(b.size_ratio, 3)} times the task's "
+            f"size {fmt_q(size, 'm')} (links {fmt_q(b.link1, 'm')} and {fmt_q(b.link2, 'm')}, "
+            f"offset {fmt_q(b.offset, 'm')}); {why}." + runner,
+            f"{len(df)} variants, {len(best_rows)} ranked, {len(excluded)} excluded "
+            f"(degenerate or residual above {RESIDUAL_TOL:g}); the largest residual of the "
+            f"ranked ones is {fmt_num(best_rows.residual.max(), 2)} (a check of the "
+            "engine-verified pose error, not a ranking key).")
+    rep.text(f"Study: {study.path.name}. Ranking: variants with a residual above "
+             f"{RESIDUAL_TOL:g} (relative to the task) or degenerate are excluded; the others "
+             f"are ranked first by distance from singular poses (worst condition of the "
+             f"chain's Jacobian over the {len(T)} positions, moments divided by the task's "
+             f"size, at most {fmt_num(COND_OK)}: a large condition means poor motion and "
+             f"force transmission), then by the design criterion {kind}: {crit_words}, "
+             f"against the task's size {fmt_q(size, 'm')}, then by the condition. Both keys "
+             "are rounded to 4 significant digits, so round-off never reorders them.")
+    rep.heading(f"Ranked variants (criterion: {kind})")
+    cols = ["rank", "variant", "mechanism", "rr", "criterion", "size_ratio", "link1", "link2",
+            "offset", "condition", "residual", "check"]
+    units = {"criterion": "m", "size_ratio": DIMENSIONLESS, "link1": "m", "link2": "m",
+             "offset": "m", "condition": DIMENSIONLESS, "residual": DIMENSIONLESS}
+    show = best_rows[cols].assign(rank=best_rows["rank"].astype(int))
+    rep.table(show, "{:.4g}", units=units)
+    if len(excluded):
+        rep.heading("Excluded variants")
+        rep.table(excluded[["variant", "mechanism", "rr", "residual", "check"]], "{:.3g}",
+                  units={"residual": DIMENSIONLESS})
+    rep.heading("Axes of the best variant (first position)")
+    if len(best_rows):
+        best = best_rows.iloc[0]
         rep.table(pd.DataFrame([{"joint": k, "type": best[f"j{k}_type"],
                                  **{c: best[f"j{k}_{c}"] for c in ("ux", "uy", "uz", "x", "y", "z")}}
-                                for k in (1, 2, 3)]))
+                                for k in (1, 2, 3)]), "{:.6g}",
+                  units={"ux": DIMENSIONLESS, "uy": DIMENSIONLESS, "uz": DIMENSIONLESS,
+                         "x": "m", "y": "m", "z": "m"})
     rep.add_to(out)
+    best = best_rows.iloc[0] if len(best_rows) else None
     return {"command": "synth", "family": family, "variants": int(len(df)),
-            "regular": int((df.reason == "").sum()),
-            "max_residual": float(df[df.reason == ""].residual.max()),
-            "best_variant": int(by_crit.iloc[0].variant) if len(by_crit) else None,
-            "criterion": kind}
+            "ranked": int(len(best_rows)), "regular": int((df.reason == "").sum()),
+            "max_residual": quantity(float(df[df.reason == ""].residual.max()), DIMENSIONLESS),
+            "best_variant": int(best.variant) if best is not None else None,
+            "criterion": kind,
+            "best_criterion": quantity(float(best.criterion) if best is not None else None, "m"),
+            "best_condition": quantity(float(best.condition) if best is not None else None,
+                                       DIMENSIONLESS),
+            "task_size": quantity(size, "m")}

@@ -70,3 +70,14 @@ def build_dynamics(sec: Study, mech: Mechanism) -> Dynamics:
     for k in sec.sections("spring", required=False):
         d.add_spring(k.get("joint", "str"), k.get("stiffness", low=0.0), k.get("free", "float", 0.0))
     return d
+
+
+def coordinate_unit(mech, label: str) -> str:
+    """The unit of a joint coordinate label (``joint`` or ``joint.coordinate``, as in
+    ``Mechanism.coordinate_labels``): m for a slide (P, the ``s`` of C), rad otherwise."""
+    name, _, coord = label.partition(".")
+    for j in getattr(mech, "joints", []):
+        if j.name == name:
+            c = coord or j.coordinate_names[0]
+            return "m" if c == "s" else "rad"
+    return "rad"

@@ -230,8 +230,15 @@ def compliance_of(K, name: str = "K") -> np.ndarray:
 
 
 def stiffness_indices(K, *, singular_cond: float = 1e8) -> pd.DataFrame:
-    """The indices a report shows, one row each, never mixing units: ``index``,
-    ``value`` (array or number) and ``unit``.
+    """The indices a report shows as a tidy table: one number per row, never mixing units.
+
+    Columns: ``index`` (``kt``: eigenvalue of the translational block K_n; ``cr``:
+    eigenvalue of the rotational block of the compliance C = K⁻¹; ``screw``: the
+    frame-invariant screw eigenvalues of ``K t = λ Δ t``; ``coupling``: ‖K_c‖, the
+    Frobenius norm of the coupling block), ``component`` (1, 2, … in ascending order of
+    the values; 1 for the coupling), ``value`` (a float), ``unit`` (N/m, rad/(N·m), N,
+    N/rad) and ``meaning`` (what the row is, in words).  Select one index with
+    ``df[df["index"] == "kt"].value``.
 
     Parameters
     ----------
@@ -258,10 +265,15 @@ def stiffness_indices(K, *, singular_cond: float = 1e8) -> pd.DataFrame:
                                     "undefined")
         K = K.K
     K = matrix6(K, "K", single=True)
-    return pd.DataFrame({
-        "index": ["eigenvalues of the translational block K_n",
-                  "eigenvalues of the rotational compliance",
-                  "screw eigenvalues K t = λ Δ t (frame-invariant)", "‖K_c‖ (coupling)"],
-        "value": [translational_eigenvalues(K), rotational_compliance_eigenvalues(K),
-                  screw_eigenvalues(K).real, float(np.linalg.norm(K[:3, 3:]))],
-        "unit": ["N/m", "rad/(N·m)", "N", "N/rad"]})
+    groups = [("kt", translational_eigenvalues(K), "N/m",
+               "translational stiffness: eigenvalue of the translational block K_n"),
+              ("cr", rotational_compliance_eigenvalues(K), "rad/(N·m)",
+               "rotational compliance: eigenvalue of the rotational block of C = K⁻¹"),
+              ("screw", screw_eigenvalues(K).real, "N",
+               "screw eigenvalue of K t = λ Δ t (frame-invariant)"),
+              ("coupling", np.array([np.linalg.norm(K[:3, 3:])]), "N/rad",
+               "‖K_c‖: Frobenius norm of the coupling block")]
+    rows = [{"index": name, "component": i + 1, "value": float(v), "unit": unit,
+             "meaning": meaning}
+            for name, values, unit, meaning in groups for i, v in enumerate(values)]
+    return pd.DataFrame(rows, columns=["index", "component", "value", "unit", "meaning"])

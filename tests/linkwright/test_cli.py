@@ -22,7 +22,7 @@ def test_synth_end_to_end(tmp_path, capsys):
     code, out, _ = run(["synth", EX / "seed001_rrr.toml", "-o", tmp_path, "--json"], capsys)
     assert code == 0
     summ = json.loads(out)
-    assert summ["variants"] == 36 and summ["max_residual"] <= 1e-9
+    assert summ["variants"] == 36 and summ["max_residual"]["value"] <= 1e-9
     df = pd.read_csv(tmp_path / "variants.csv")
     S = [Screw.from_degrees([0, 0, 1], [0, 0, 0], 30, 0.7),
          Screw.from_degrees([0.34202, 0, 0.939693], [0, 1.1, 0], 65, 0.5),
@@ -31,7 +31,7 @@ def test_synth_end_to_end(tmp_path, capsys):
     cols = [f"j{k}_{c}" for k in (1, 2, 3) for c in ("ux", "uy", "uz", "x", "y", "z")]
     assert np.allclose(df[cols].to_numpy(), ref[cols].to_numpy(), atol=1e-12)
     md = (tmp_path / "report.md").read_text()
-    assert "Ranked by the design criterion: link_length" in md
+    assert "Ranked variants (criterion: link_length)" in md
     assert (tmp_path / "report.html").read_text().startswith("<!DOCTYPE html>")
 
 
@@ -68,7 +68,7 @@ def test_approx_end_to_end(tmp_path, capsys):
     exact = cy.psi31(q) * 500 * 0.4 ** 2 * (cy.psi31(q) * qdd + cy.dpsi31(q) * qd ** 2)
     assert np.allclose(f.Q_exact, exact, rtol=1e-12, atol=1e-9)
     rms = np.sqrt(np.mean((f.Q_ls - exact) ** 2) / np.mean(exact ** 2))
-    assert np.isclose(json.loads(out)["force_rms_ls"], rms) and rms < 0.01
+    assert np.isclose(json.loads(out)["force_rms_ls"]["value"], rms) and rms < 0.01
     assert (tmp_path / "drive_force.png").exists()
 
 
@@ -138,12 +138,12 @@ def test_outputs_are_atomic_on_failure(tmp_path):
 
 
 def test_report_without_matplotlib_says_plots_need_the_extra(tmp_path, capsys, monkeypatch):
-    import linkwright.output as output
-    monkeypatch.setattr(output, "have_matplotlib", lambda: False)
+    import linkwright.render as render
+    monkeypatch.setattr(render, "have_matplotlib", lambda: False)
     code, _, _ = run(["approx", EX / "seed004_cylinder.toml", "-o", tmp_path, "--quiet"], capsys)
     assert code == 0
     md = (tmp_path / "report.md").read_text()
-    assert "plots need the `plot` extra" in md and not list(tmp_path.glob("*.png"))
+    assert "plots need matplotlib" in md and not list(tmp_path.glob("*.png"))
     assert "<table" in (tmp_path / "report.html").read_text()
 
 

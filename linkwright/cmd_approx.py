@@ -26,6 +26,9 @@ def _source(study: Study, sec: Study, a, b):
         for key, v in (("B0", B0), ("B3", B3)):
             if not v > 0:
                 raise cy.error(key, f"expected a length > 0 (m), got {v}")
+        if cy and not abs(B0 - B3) < B < B0 + B3:     # the triangle B0, B3, B closes
+            raise cy.error("B", f"the cylinder assembles only for |B0 − B3| < B < B0 + B3 = "
+                                f"{B0 + B3:g} m (B0 = {B0:g} m, B3 = {B3:g} m), got B = {B:g} m")
         return ((lambda x: cylinder.f3(x, B, B0, B3)), (lambda x: cylinder.psi31(x, B, B0, B3)),
                 (lambda x: cylinder.dpsi31(x, B, B0, B3)), "closed form (seed 004)", B3,
                 ("m", "rad"))

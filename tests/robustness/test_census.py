@@ -10,16 +10,9 @@ import pytest
 from . import cases as C
 from .census import PACKAGES, classify_bad, classify_valid
 
-#: Bad inputs that are not yet refused clearly, in files this census does not own: TO BE
-#: FIXED BY THE OWNERS of stiffness/ and linkwright/.  Each is still run: its test fails
-#: once the case is fixed, as a reminder to take it out of this set (then the set is empty
-#: and every case must be clear).
-KNOWN_OPEN = {
-    # an approx study with [cylinder] B = 2.0 (> B0 + B3: no assembly): exit 2 but the
-    # message blames key 'approx.a' (or 'approx.n') with "d2f: not finite at x = 0.0"
-    # instead of naming 'cylinder.B'
-    "linkwright.cli approx:cylinder.B=too-long",
-}
+#: Bad inputs not yet refused clearly (each still runs; its test fails once it is fixed, as
+#: a reminder to take it out).  Empty: every bad input of the census is refused clearly.
+KNOWN_OPEN: set = set()
 
 BAD = {c.name: c for c in C.BAD}
 VALID = {c.name: c for c in C.VALID}

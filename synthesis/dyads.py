@@ -1,5 +1,6 @@
-"""Dyads by finite positions (seed 001): RRR by four positions, enumerated and verified
-(RRS and PRS: :mod:`synthesis.rs`).
+"""Dyads by finite positions (seed 001), the family table's decompositions: RRR by four
+positions, RRS by six and PRS by five, enumerated and verified by the engine
+(:mod:`synthesis.verify`).
 
 RRR (seed 001, Fig. 1).  An RR link ("2–3") is synthesised through three of
 the positions (always position 1 and two of 2, 3, 4: the screws are given from
@@ -19,6 +20,12 @@ Every variant is verified with the closure engine: all synthesised open chains
 hang from the ground of one :class:`closure.Mechanism`, are driven to their
 joint values at all positions in one batched call, and each body pose is
 compared with the given pose.
+
+RRS (seed 001, Fig. 2): the RS link ("2–3") works through positions 1–4 with
+joint 1 locked; the two later positions are reached by turning about axis 1
+(joint 2 locked at its value in the transition position s, the sphere free),
+so axis 1 is the axis of the circle through C_s, C_5, C_6.  PRS: the slide
+of the prismatic joint 1 carries C from C_s to C_5.
 """
 from __future__ import annotations
 
@@ -27,14 +34,15 @@ import itertools
 import numpy as np
 import pandas as pd
 
-from closure import Mechanism, transform
-from closure.frames import cross, log_so3
+from closure.frames import cross
 
 from .errors import SynthesisError
 from .rr import _angle_about, _rot, rotation_axis_between, rr_links
+from .rs import rs_links
 from .screw import Line
-from .validate import array, line, number, screws as _screws, task_scale
-from .validate import transform as _transform
+from .validate import screws as _screws, task_scale
+# chain_mechanism, verify_chain, verify_chains: re-exported (they lived here before synthesis.verify)
+from .verify import chain_mechanism, verify_chain, verify_chains, verify_points  # noqa: F401
 
 __all__ = ["enumerate_dyads", "rrr_dyads", "verify_chain", "verify_chains", "chain_mechanism", "DYAD_COLUMNS"]
 
@@ -42,170 +50,6 @@ DYAD_COLUMNS = (["family", "variant", "order"]
                 + [f"j{k}_{c}" for k in (1, 2, 3)
                    for c in ("type", "ux", "uy", "uz", "x", "y", "z")]
                 + ["residual"])
-
-
-def _frame_of(line: Line) -> np.ndarray:
-    """A joint frame with Z along the line at its point."""
-    return _frames_of([line])[0]
-
-
-def _frames_of(lines) -> np.ndarray:
-    """Joint frames (N, 4, 4) with Z along each line at its point, in one vectorised pass."""
-    z = np.array([ln.direction for ln in lines])
-    a = np.where((np.abs(z[:, 0]) < 0.9)[:, None], [1.0, 0, 0], [0, 1.0, 0])
-    x = a - np.sum(a * z, 1, keepdims=True) * z
-    x /= np.linalg.norm(x, axis=1, keepdims=True)
-    return transform(np.stack([x, cross(z, x), z], -1), np.array([ln.point for ln in lines]))
-
-
-def _hang_chains(m: Mechanism, chains, n_links: int):
-    """Hang every chain (types, lines, ...) from the ground of ``m``: links A{v}, B{v}[, body{v}],
-    joints v{v}j{k} as inputs; frames built in one pass (exact rotations, not re-validated)."""
-    frames = _frames_of([ln for c in chains for ln in c[1][:n_links]])
-    f = 0
-    for v, chain in enumerate(chains):
-        types = chain[0]
-        links = ["ground", f"A{v}", f"B{v}", f"body{v}"][:n_links + 1]
-        for name in links[1:]:
-            m.add_link(name)
-        for k in range(n_links):
-            m.add_joint(f"v{v}j{k + 1}", types[k], links[k], links[k + 1], at=frames[f],
-                        validate=False)
-            m.add_input(f"v{v}j{k + 1}")
-            f += 1
-
-
-_KINDS = "RPCHU"
-
-
-def _check_chain(types, lines, n: int = 3):
-    """Joint letters and Lines of an open chain of ``n`` joints (kinds R, P, C, H, U, and S
-    only where stated by the caller)."""
-    if not isinstance(types, str) or len(types) != n or any(t not in _KINDS + "S" for t in types):
-        raise SynthesisError(f"types: expected {n} joint letters from {_KINDS}S (e.g. 'RRR'), "
-                             f"got {types!r}")
-    if isinstance(lines, (str, bytes)) or not hasattr(lines, "__iter__"):
-        raise SynthesisError(f"lines: expected {n} Lines, got {type(lines).__name__}")
-    lines = list(lines)
-    if len(lines) != n:
-        raise SynthesisError(f"lines: expected {n} Lines, got {len(lines)}")
-    return types, [line(ln, f"lines[{k}]") for k, ln in enumerate(lines)]
-
-
-def chain_mechanism(types, lines) -> Mechanism:
-    """The open chain ground –j1– A –j2– B –j3– body as an engine mechanism with every
-    joint an input (so the chain is driven by its joint values).
-
-    Parameters
-    ----------
-    types : str
-        Three joint letters (R, P, C, H, U), ground joint first.
-    lines : sequence of three Line
-        The joint axes in the first position.
-    """
-    types, lines = _check_chain(types, lines)
-    m = Mechanism(["A", "B", "body"])
-    links = ["ground", "A", "B", "body"]
-    for k, (t, axis) in enumerate(zip(types, lines)):
-        if t == "S":
-            raise SynthesisError("chain_mechanism: spherical joints are verified through their "
-                                 "rotation, not driven; use verify_chain with rotations")
-        m.add_joint(f"j{k + 1}", t, links[k], links[k + 1], at=_frame_of(axis))
-        m.add_input(f"j{k + 1}")
-    return m
-
-
-def _pose_errors(A, B, length):
-    rot = np.linalg.norm(log_so3(np.swapaxes(A[..., :3, :3], -1, -2) @ B[..., :3, :3]), axis=-1)
-    pos = np.linalg.norm(A[..., :3, 3] - B[..., :3, 3], axis=-1)
-    return rot, pos / length
-
-
-def verify_chains(chains, targets, length: float = 1.0) -> np.ndarray:
-    """Verify many synthesised chains at once: all of them hang from the ground of one
-    engine mechanism, driven by their joint values at every position in one batched call.
-
-    Parameters
-    ----------
-    chains : list of (types, lines, joint_values (P, 3))
-    targets : (P, 4, 4) the given poses
-
-    Returns
-    -------
-    numpy.ndarray (len(chains),): each chain's largest pose error (rad, or translation /
-    ``length``).
-    """
-    if not chains:
-        return np.zeros(0)
-    m = Mechanism()
-    _hang_chains(m, chains, 3)
-    x = np.concatenate([np.asarray(jv, float) for _, _, jv in chains], 1)
-    pose = m.solve(x)
-    link = pose.kinematics(twists=False)["link"]
-    bodies = link[:, [m.links.index(f"body{v}") for v in range(len(chains))]]   # (P, V, 4, 4)
-    rot, pos = _pose_errors(bodies, np.asarray(targets, float)[:, None], length)
-    return np.maximum(rot.max(0), pos.max(0))
-
-
-def verify_points(chains, targets, length: float = 1.0) -> np.ndarray:
-    """Verify sphere-ended chains: the two joints before the sphere are driven by the engine
-    (all chains in one mechanism, one batched call) and the sphere centre's position is
-    compared with its given positions (the sphere leaves the orientation free).
-
-    chains : list of (types (2), lines (2), joint_values (P, 2), centre (3,))
-    Returns each chain's largest centre error divided by ``length``.
-    """
-    if not chains:
-        return np.zeros(0)
-    m = Mechanism()
-    _hang_chains(m, chains, 2)
-    pose = m.solve(np.concatenate([np.asarray(jv, float) for _, _, jv, _ in chains], 1))
-    T = np.asarray(targets, float)
-    err = []
-    for v, (_, _, _, c) in enumerate(chains):
-        got = np.atleast_2d(pose.point(f"B{v}", c))
-        want = T[:, :3, :3] @ c + T[:, :3, 3]
-        err.append(np.linalg.norm(got - want, axis=1).max() / length)
-    return np.array(err)
-
-
-def verify_chain(types, lines, joint_values, targets, length: float = 1.0) -> float:
-    """Drive the synthesised chain through its joint values with the closure engine and
-    return the largest pose error over all positions: rotation (rad) or translation
-    divided by ``length`` (the positions' size).
-
-    Parameters
-    ----------
-    types : str
-        Three joint letters (R, P, C, H, U), ground joint first.
-    lines : sequence of three Line
-        Joint axes in the first position.
-    joint_values : array_like, shape (n, 3) or (3,)
-        Joint values at each position (rad, or length for P).
-    targets : array_like, shape (n, 4, 4)
-        The body's given poses (rigid transforms).
-    length : float
-        Positive length that translation errors are divided by.
-
-    Raises
-    ------
-    SynthesisError
-        Bad input, naming the argument.
-    """
-    types, lines = _check_chain(types, lines)
-    if "S" in types:
-        raise SynthesisError("types: spherical joints are verified through their centre "
-                             "(verify_points), not driven; expected R, P, C, H or U")
-    targets = _transform(targets, "targets", batch=True)
-    n = targets.shape[0]
-    jv = array(joint_values, "joint_values", None, what=f"joint values ({n}, 3), one row per target")
-    if jv.shape == (3,) and n == 1:
-        jv = jv[None]
-    if jv.shape != (n, 3):
-        raise SynthesisError(f"joint_values: expected joint values ({n}, 3), one row per "
-                             f"target, got shape {jv.shape}")
-    length = number(length, "length", positive=True)
-    return float(verify_chains([(types, lines, jv)], targets, length)[0])
 
 
 def _check_screws(screws, n, family):
@@ -323,15 +167,80 @@ def _failed_row(variant, order, mech, rr_i, reason):
 def rrs_dyads(screws) -> pd.DataFrame:
     """RRS dyads through six positions (RS link through 1–4, axis 1 from the circle of the
     sphere centre's later positions); see :mod:`synthesis.rs`."""
-    from .rs import sphere_dyads
     return pd.DataFrame(sphere_dyads("RRS", _check_screws(screws, 6, "RRS")))
 
 
 def prs_dyads(screws) -> pd.DataFrame:
     """PRS dyads through five positions (RS link through 1–4, the slide carries the sphere
     centre to position 5); see :mod:`synthesis.rs`."""
-    from .rs import sphere_dyads
     return pd.DataFrame(sphere_dyads("PRS", _check_screws(screws, 5, "PRS")))
+
+
+def circle_axis(p1, p2, p3):
+    """Axis (Line) of the circle through three points, and the angles of p2, p3 about it
+    from p1."""
+    p1, p2, p3 = (np.asarray(p, float) for p in (p1, p2, p3))
+    n = cross(p2 - p1, p3 - p1)
+    # collinear to round-off: relative to the triangle's size and the coordinates' size
+    size = max(np.abs(p2 - p1).max(), np.abs(p3 - p1).max(), np.abs(p3 - p2).max())
+    if np.linalg.norm(n) <= 1e-12 * size * max(size, np.abs([p1, p2, p3]).max()):
+        raise SynthesisError("axis 1: the later positions of the sphere centre are collinear "
+                             "or coincide; no circle through them")
+    n /= np.linalg.norm(n)
+    A = np.array([2 * (p2 - p1), 2 * (p3 - p1), n])
+    b = np.array([p2 @ p2 - p1 @ p1, p3 @ p3 - p1 @ p1, n @ p1])
+    O = np.linalg.solve(A, b)
+    u = p1 - O
+    angs = [float(np.arctan2(cross(u, p - O) @ n, u @ (p - O))) for p in (p2, p3)]
+    return Line(n, O).canonical(), angs
+
+
+def sphere_dyads(family, screws):
+    """RRS (six positions) or PRS (five positions) dyads as rows for the variant table."""
+    n_pos = 6 if family == "RRS" else 5
+    T, size = _task(screws)
+    links = rs_links(np.array(T[:4]))
+    rows, chains = [], []
+    variant = 0
+    for s in (1, 2, 3, 4):
+        later = list(range(5, n_pos + 1))
+        order = f"RS through (1, 2, 3, 4); joint 1 carries position {s} to {tuple(later)}"
+        for m_i, link in enumerate(links):
+            variant += 1
+            Cs = [t[:3, :3] @ link.centre + t[:3, 3] for t in T]
+            ax2 = link.axis
+            try:
+                if family == "RRS":
+                    ax1, angs = circle_axis(Cs[s - 1], Cs[4], Cs[5])
+                    q1 = [0.0] * 4 + angs
+                    types = "RRS"
+                else:
+                    d = Cs[4] - Cs[s - 1]
+                    if np.linalg.norm(d) < 1e-12 * size:
+                        raise SynthesisError("prismatic axis: the sphere centre does not move "
+                                             f"from position {s} to 5")
+                    ax1 = Line(d / np.linalg.norm(d), Cs[s - 1]).canonical()
+                    q1 = [0.0] * 4 + [float(np.linalg.norm(d))]
+                    types = "PRS"
+            except SynthesisError as e:
+                row = _row(family, variant, order, family, [ax2, ax2, ax2], np.nan)
+                row["reason"] = str(e)
+                rows.append(row)
+                continue
+            q2 = list(link.angles[:4]) + [link.angles[s - 1]] * (n_pos - 4)
+            centre = Line(np.array([0, 0, 1.0]), link.centre)
+            lines = [ax1, ax2.canonical(ax1), centre]
+            jv = np.c_[q1, q2]
+            row = _row(family, variant, order, types, lines, np.nan, member=m_i,
+                       joint_values=np.c_[jv, np.full(n_pos, np.nan)])
+            for c in ("ux", "uy", "uz"):
+                row[f"j3_{c}"] = np.nan                        # a sphere has no axis
+            rows.append(row)
+            chains.append((len(rows) - 1, (types[:2], lines[:2], jv, link.centre)))
+    res = verify_points([c for _, c in chains], np.array(T), size)
+    for (i, _), r in zip(chains, res):
+        rows[i]["residual"] = float(r)
+    return rows
 
 
 FAMILY_SOLVERS = {"RRR": rrr_dyads, "RRS": rrs_dyads, "PRS": prs_dyads}

@@ -25,7 +25,9 @@ _TABLE3 = [
     ("ВС₂П, (С₂ВП)", "С₂П, ВП, (С₂П, ВП)", 3, 5),
     ("ВГЦ, (ВЦГ), (ГВЦ), (ЦВГ)", "ГЦ, ВЦ, (ЦГ, ВГ), (ГЦ, ВЦ), (ЦГ, ВГ)", 5, 7),
     ("ВВС", "ВС, ВС", 6, 12),
-    ("ВВС, (ПВС)", "ПС, ВС или ВС, ПС, (ВС, ПС или ПС, ВС)", 5, 10),
+    # the scan prints "ВВС, (ПВС)": a misprint (that row duplicates row 14 and its binary
+    # links are ПС and ВС): the families are ВПС and ПВС (RPS, PRS)
+    ("ВПС, (ПВС)", "ПС, ВС или ВС, ПС, (ВС, ПС или ПС, ВС)", 5, 10),
     ("ВГС, (ГВС)", "ГС, ВС, (ГС, ВС)", 7, 13),
     ("ПГС, (ГПС)", "ГС, ПС, (ГС, ПС)", 6, 11),
     ("ЦПЦ, (ПЦЦ)", "ПЦ, ЦЦ (ПЦ, ЦЦ)", 4, 11),
@@ -34,6 +36,9 @@ _TABLE3 = [
 ]
 
 _IMPLEMENTED = {"RRR", "RRS", "PRS"}
+
+#: (row, family) → how the scan's text was read
+_NOTES = {(15, "RPS"): "printed ВВС in the scan (misprint: duplicates row 14); read as ВПС"}
 
 
 def _latin(word: str) -> str:
@@ -61,8 +66,8 @@ def families() -> pd.DataFrame:
     table row), ``binary_links`` (the binary links synthesised, seed letters),
     ``N`` (positions the method uses), ``N_max`` (positions the chain could
     reach at most), ``implemented`` (whether :func:`enumerate_dyads` has it).
-    The row ``ВВС, (ПВС)`` is read as printed (it likely means ПВС with a
-    ВВС alternative).
+    Row 15 is printed ``ВВС, (ПВС)`` in the scan; it is read as ``ВПС, (ПВС)`` (RPS, PRS:
+    its binary links are ПС and ВС, and ВВС is row 14), column ``note`` says so.
     """
     rows = []
     for r, (fams, links, n, nmax) in enumerate(_TABLE3, start=1):
@@ -70,5 +75,6 @@ def families() -> pd.DataFrame:
             w = word.strip().strip("()")
             lat = _latin(w)
             rows.append({"family": lat, "seed": w, "row": r, "binary_links": links, "N": n,
-                         "N_max": nmax, "implemented": lat in _IMPLEMENTED})
+                         "N_max": nmax, "implemented": lat in _IMPLEMENTED,
+                         "note": _NOTES.get((r, lat), "")})
     return pd.DataFrame(rows)

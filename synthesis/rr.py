@@ -26,6 +26,7 @@ from .dualquat import dq_conj, dq_from_matrix, dq_inv, dq_mul, dq_to_matrix
 from .errors import SynthesisError
 from .screw import Line, Screw, common_normal
 from .validate import number, screw, task_scale, unit, vec3
+from .verify import pose_error as _pose_error
 
 __all__ = ["RRLink", "rr_links", "rotation_axis_between"]
 
@@ -398,15 +399,6 @@ def _parameters(c1, c0, P2, P3):
             raise SynthesisError("rr_links: no real parameter for a position on the motion")
         ts.append(tbest)
     return ts
-
-
-def _pose_error(A, B, length_scale=1.0):
-    """Largest of the rotation error (rad) and the translation error divided by
-    ``length_scale`` (the task's reach: so the figure does not depend on the unit)."""
-    # ‖R − I‖_F = 2√2 |sin(θ/2)|: accurate for small θ, which is what a residual measures
-    E = np.linalg.norm(A[:3, :3].T @ B[:3, :3] - np.eye(3))
-    rot = 2 * np.arcsin(min(1.0, E / (2 * np.sqrt(2))))
-    return float(max(rot, np.abs(A[:3, 3] - B[:3, 3]).max() / length_scale))
 
 
 def rotation_axis_between(m3, q3, m4, q4):

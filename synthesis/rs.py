@@ -1,5 +1,5 @@
-"""RS links through four positions and the sphere-ended dyads RRS (six positions) and
-PRS (five positions) of seed 001.
+"""RS links (revolute in the ground, spherical joint in the body) through four positions
+(the sphere-ended dyads RRS and PRS built from them are in :mod:`synthesis.dyads`).
 
 An RS link (revolute axis in the ground, sphere centre C in the body) reaches
 four positions when C's four positions lie on a circle about the axis.  For an
@@ -11,12 +11,6 @@ one-parameter family (a curve of directions g on the sphere): linkwright traces
 it deterministically along great circles of directions (a fine sampling of
 h, every sign change refined by Brent's method), and keeps the links that then
 reach the four positions to tolerance.
-
-RRS (seed 001, Fig. 2): the RS link ("2–3") works through positions 1–4 with
-joint 1 locked; the two later positions are reached by turning about axis 1
-(joint 2 locked at its value in the transition position s, the sphere free),
-so axis 1 is the axis of the circle through C_s, C_5, C_6.  PRS: the slide
-of the prismatic joint 1 carries C from C_s to C_5.
 """
 from __future__ import annotations
 
@@ -174,72 +168,3 @@ def _rs_from_direction(g, T, size):
     u0 = Cs[0] - O
     ang = [float(np.arctan2(cross(u0, c - O) @ g, u0 @ (c - O))) for c in Cs]
     return RSLink(axis, C, ang, resid)
-
-
-def circle_axis(p1, p2, p3):
-    """Axis (Line) of the circle through three points, and the angles of p2, p3 about it
-    from p1."""
-    p1, p2, p3 = (np.asarray(p, float) for p in (p1, p2, p3))
-    n = cross(p2 - p1, p3 - p1)
-    # collinear to round-off: relative to the triangle's size and the coordinates' size
-    size = max(np.abs(p2 - p1).max(), np.abs(p3 - p1).max(), np.abs(p3 - p2).max())
-    if np.linalg.norm(n) <= 1e-12 * size * max(size, np.abs([p1, p2, p3]).max()):
-        raise SynthesisError("axis 1: the later positions of the sphere centre are collinear "
-                             "or coincide; no circle through them")
-    n /= np.linalg.norm(n)
-    A = np.array([2 * (p2 - p1), 2 * (p3 - p1), n])
-    b = np.array([p2 @ p2 - p1 @ p1, p3 @ p3 - p1 @ p1, n @ p1])
-    O = np.linalg.solve(A, b)
-    u = p1 - O
-    angs = [float(np.arctan2(cross(u, p - O) @ n, u @ (p - O))) for p in (p2, p3)]
-    return Line(n, O).canonical(), angs
-
-
-def sphere_dyads(family, screws):
-    """RRS (six positions) or PRS (five positions) dyads as rows for the variant table."""
-    from .dyads import _row, verify_points
-    n_pos = 6 if family == "RRS" else 5
-    from .dyads import _task
-    T, size = _task(screws)
-    links = rs_links(np.array(T[:4]))
-    rows, chains = [], []
-    variant = 0
-    for s in (1, 2, 3, 4):
-        later = list(range(5, n_pos + 1))
-        order = f"RS through (1, 2, 3, 4); joint 1 carries position {s} to {tuple(later)}"
-        for m_i, link in enumerate(links):
-            variant += 1
-            Cs = [t[:3, :3] @ link.centre + t[:3, 3] for t in T]
-            ax2 = link.axis
-            try:
-                if family == "RRS":
-                    ax1, angs = circle_axis(Cs[s - 1], Cs[4], Cs[5])
-                    q1 = [0.0] * 4 + angs
-                    types = "RRS"
-                else:
-                    d = Cs[4] - Cs[s - 1]
-                    if np.linalg.norm(d) < 1e-12 * size:
-                        raise SynthesisError("prismatic axis: the sphere centre does not move "
-                                             f"from position {s} to 5")
-                    ax1 = Line(d / np.linalg.norm(d), Cs[s - 1]).canonical()
-                    q1 = [0.0] * 4 + [float(np.linalg.norm(d))]
-                    types = "PRS"
-            except SynthesisError as e:
-                row = _row(family, variant, order, family, [ax2, ax2, ax2], np.nan)
-                row["reason"] = str(e)
-                rows.append(row)
-                continue
-            q2 = list(link.angles[:4]) + [link.angles[s - 1]] * (n_pos - 4)
-            centre = Line(np.array([0, 0, 1.0]), link.centre)
-            lines = [ax1, ax2.canonical(ax1), centre]
-            jv = np.c_[q1, q2]
-            row = _row(family, variant, order, types, lines, np.nan, member=m_i,
-                       joint_values=np.c_[jv, np.full(n_pos, np.nan)])
-            for c in ("ux", "uy", "uz"):
-                row[f"j3_{c}"] = np.nan                        # a sphere has no axis
-            rows.append(row)
-            chains.append((len(rows) - 1, (types[:2], lines[:2], jv, link.centre)))
-    res = verify_points([c for _, c in chains], np.array(T), size)
-    for (i, _), r in zip(chains, res):
-        rows[i]["residual"] = float(r)
-    return rows

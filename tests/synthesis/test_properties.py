@@ -14,6 +14,9 @@ from closure import exp_so3
 from synthesis import (Line, Screw, SynthesisError, chain_mechanism, enumerate_dyads, families,
                        inverse_screws, invert_chain, relative_screw, rotation_axis_between,
                        rr_links, rrr_dyads, rs_links, verify_chain)
+from synthesis import (cc_direction_residual, cc_directions, cc_links, cr_links, helical_links,
+                       hh_links_free_pitch,
+                       cp_links, pc_links, pr_links, rc_links, rp_links)
 from synthesis.dyads import verify_chains
 from synthesis.rr import _rot
 
@@ -29,6 +32,11 @@ L1 = Line(np.array([1.0, 0, 0]), np.array([0.1, -0.2, 0.3]))
 P0 = np.array([0.1, -0.2, 0.3])
 LINK = rr_links(SEED[0], SEED[1])[0]
 T4 = np.array([np.eye(4)] + [s.matrix() for s in SEED])
+SEED5 = SEED + [Screw.from_degrees([0.0, 0.6, 0.8], [0.3, -0.4, 0.5], 50, -0.4)]
+G0 = np.array([0.48, 0.6, 0.64])
+COAXIAL = [Screw.from_degrees([0, 0, 1], [0.2, 0.1, 0], 40, 0.3),
+           Screw.from_degrees([0, 0, 1], [-0.3, 0.5, 0], -70, 0.5)]   # a PR/RP task
+HLINK = helical_links(SEED[0], SEED[1], 0.3, -0.2, samples=1000)[0]
 
 
 def row_lines(row):
@@ -76,6 +84,22 @@ CASES = {
                                         targets=np.array([np.eye(4), np.eye(4)]), length=1.0)),
     "chain_mechanism": (chain_mechanism, dict(types="RRR", lines=[L0, L1, L0])),
     "invert_chain": (invert_chain, dict(row=D0.iloc[3])),
+    "helical_links": (helical_links, dict(s12=SEED[0], s13=SEED[1], fixed_pitch=0.3,
+                                          moving_pitch=-0.2, samples=300, tol=1e-9)),
+    "BinaryLink.pose": (HLINK.pose, dict(fixed_angle=0.3, fixed_slide=0.0, moving_angle=-0.2,
+                                         moving_slide=0.0)),
+    "hh_links_free_pitch": (hh_links_free_pitch, dict(s12=SEED[0], s13=SEED[1], fixed_direction=G0)),
+    "rc_links": (rc_links, dict(s12=SEED[0], s13=SEED[1], fixed_direction=G0, fixed_pitch=0.0)),
+    "cr_links": (cr_links, dict(s12=SEED[0], s13=SEED[1], fixed_direction=G0, moving_pitch=0.1)),
+    "cc_links": (cc_links, dict(screws=SEED5, samples=300, tol=1e-9)),
+    "cc_links.three": (cc_links, dict(screws=SEED[:2], fixed_axis=L1)),
+    "cc_direction_residual": (cc_direction_residual, dict(screws=SEED, fixed_direction=G0)),
+    "cc_directions": (cc_directions, dict(screws=SEED, azimuth=0.4)),
+    "pr_links": (pr_links, dict(s12=COAXIAL[0], s13=COAXIAL[1])),
+    "rp_links": (rp_links, dict(s12=COAXIAL[0], s13=COAXIAL[1])),
+    "pc_links": (pc_links, dict(s12=COAXIAL[0], s13=COAXIAL[1], fixed_direction=G0)),
+    "cp_links": (cp_links, dict(s12=COAXIAL[0], s13=COAXIAL[1], moving_direction=G0)),
+    "cc_links.four": (cc_links, dict(screws=SEED, azimuth=0.4, fixed_point=P0)),
 }
 SCREWS, LINES = {"other", "s1j", "s1k", "s12", "s13"}, {"previous", "other_line"}
 POSITIVE = {"tol", "length"}
@@ -84,10 +108,23 @@ POSITIVE = {"tol", "length"}
 def corruptions(fname, name, value):
     """(kind, bad value) pairs for one argument; every one is invalid for it."""
     common = [("str", "abc"), ("None", None), ("dict", {"a": 1}), ("object", object())]
-    if name == "previous" or (name == "other" and fname.startswith("Line")):
+    if name in ("previous", "fixed_axis") or (name == "other" and fname.startswith("Line")):
         return [k for k in common if k[0] != "None"] + [("screw", SEED[0]), ("array", P0)]
     if name in SCREWS:
         return common + [("line", L0), ("matrix", SEED[0].matrix())]
+    if name == "screws" and fname in ("cc_directions", "cc_links.four"):
+        return [("str", "abc"), ("None", None), ("one screw", SEED[0]), ("int", 3),
+                ("with a matrix", [SEED[0], SEED[1].matrix(), SEED[2]]),
+                ("with None", [SEED[0], None, SEED[2]]), ("too few", SEED[:2]),
+                ("too many", SEED5)] if fname == "cc_directions" else \
+            [("str", "abc"), ("None", None), ("one screw", SEED[0]), ("int", 3),
+             ("with a matrix", [SEED[0], SEED[1].matrix(), SEED[2]]),
+             ("with None", [SEED[0], None, SEED[2]])]
+    if name == "screws" and fname.startswith("cc_"):      # 2, 3 or 4 screws are all valid
+        return [("str", "abc"), ("None", None), ("one screw", SEED[0]), ("int", 3),
+                ("with a matrix", [SEED[0], SEED[1].matrix(), SEED[2]]),
+                ("with None", [SEED[0], None, SEED[2]]), ("two positions", SEED[:1]),
+                ("six positions", SEED5 + SEED[:1])]
     if name == "screws":
         return [("str", "abc"), ("None", None), ("one screw", SEED[0]), ("int", 3),
                 ("with a matrix", [SEED[0], SEED[1].matrix(), SEED[2]]),
@@ -124,7 +161,7 @@ def corruptions(fname, name, value):
         w = v.copy()
         w.flat[w.size // 2] = bad
         out.append((f"{bad}", w))
-    if name in ("axis", "direction", "m3", "m4"):
+    if name in ("axis", "direction", "m3", "m4", "fixed_direction", "moving_direction"):
         out += [("zero", np.zeros(3)), ("not unit", 2 * v)]
     if v.shape[-2:] == (4, 4):
         w = v.copy()
@@ -173,7 +210,7 @@ def test_the_tables_valid_arguments_work(fname):
 def test_every_public_function_is_covered_by_the_bad_input_table():
     import synthesis
     covered = {name.split(".")[0] for name in CASES} | {
-        "RRLink", "RSLink", "SynthesisError", "DYAD_COLUMNS", "JOINT_LETTERS", "families"}
+        "RRLink", "RSLink", "BinaryLink", "SynthesisError", "DYAD_COLUMNS", "JOINT_LETTERS", "families"}
     assert set(synthesis.__all__) <= covered
     assert families().shape[0] > 0
 

@@ -1,0 +1,382 @@
+"""Binary links with a cylindrical joint (RC, CR, HC, CH, CC) through finite positions, by
+the screw triangle (Tsai & Roth 1972): the spherical part fixes the directions, the
+dual part is then linear in the axis points and the free slides (see
+:mod:`synthesis.binary`).
+
+Counting (directions: a 2-parameter family of (g, w) through three positions, one
+through four, finitely many through five; translations: three equations per later
+position, unknowns two per axis point and one per free slide and position):
+
+==========  =========  ===========================================================
+link        positions  free parameters (explicit arguments)
+==========  =========  ===========================================================
+RC, HC      3          ``fixed_direction``: the fixed axis direction (2 dof, unit vector)
+CR, CH      3          ``fixed_direction`` (2 dof)
+CC          3          ``fixed_axis``: the whole fixed axis (direction and point: 4 dof)
+CC          4          ``azimuth`` (rad: the admissible fixed directions in that half-plane
+                       through z, up to three, or ``fixed_direction`` on the admissible
+                       curve, see :func:`cc_direction_residual`) and ``fixed_point``
+                       (length: the fixed axis of the 1-parameter parallel family nearest it)
+CC          5          none: every solution is returned
+==========  =========  ===========================================================
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .binary import (BinaryLink, _angles, _batched_lm, _check_rotations, _fibonacci, _finish,
+                     _local_minima, _same, _system, _tangent_batch, _task)
+from .errors import SynthesisError
+from .screw import Line
+from .validate import integer, line as _line, number, screw as _screw, unit, vec3
+
+__all__ = ["rc_links", "cr_links", "cc_links", "cc_direction_residual", "cc_directions"]
+
+
+def _solve_square(task, kinds, pitches, g, *, fixed_point=None, what: str):
+    """The unique link for a given fixed direction ``g`` (3 positions, one C joint, or CC
+    with the fixed point given): w from the constant-angle condition, then 6 linear
+    equations in 6 unknowns."""
+    R = task.R
+    a = np.einsum("mji,j->mi", R - np.eye(3), g)
+    w = np.cross(a[0], a[1])
+    if np.linalg.norm(w) < 1e-9:
+        raise SynthesisError(f"fixed_direction: degenerate: the moving axis direction is not "
+                             f"determined by {np.round(g, 6)} (it is perpendicular to both "
+                             "relative rotations' image directions, e.g. along a screw axis)")
+    w /= np.linalg.norm(w)
+    return _from_directions(task, kinds, pitches, g[None], w[None], fixed_point=fixed_point,
+                            what=what)[0]
+
+
+def _from_directions(task, kinds, pitches, g, w, *, fixed_point=None, near_point=None,
+                     what: str, params=None):
+    """Links for direction pairs ``g, w (N, 3)`` that satisfy the constant-angle condition
+    at every position, by solving the (square) translation equations; with ``near_point``
+    (normalised) the equations have a one-parameter family of solutions and the fixed
+    axis nearest that point is taken."""
+    R, t = task.R, task.t
+    th, ph, Gm, sin_gw = _angles(g, w, R)
+    fp = None if fixed_point is None else fixed_point
+    A, rhs, (e1, e2, f1, f2) = _system(g, w, th, ph, Gm, t, kinds, pitches, fp)
+    out = []
+    for n in range(len(g)):
+        if sin_gw[n] < 1e-9:
+            raise SynthesisError(f"{what}: degenerate: the fixed and moving axes are parallel "
+                                 "(the link's axes are then not determined)")
+        _, s, Vt = np.linalg.svd(A[n])
+        free = A[n].shape[1] - A[n].shape[0] if near_point is not None else 0
+        if A[n].shape[0] < A[n].shape[1] - free or s[-1] < 1e-9 * s[0]:
+            raise SynthesisError(f"{what}: degenerate: the translation equations are singular "
+                                 f"(condition {s[0] / max(s[-1], 1e-300):.1e}); a relative "
+                                 "screw is a pure rotation about an axis meeting the joint axes, "
+                                 "or the axes are parallel")
+        x = np.linalg.lstsq(A[n], rhs[n], rcond=None)[0]
+        if free:
+            # the family x + s·v (v the null vector): the fixed axis nearest near_point
+            v = Vt[-1]
+            q = np.array([near_point @ e1[n], near_point @ e2[n]])
+            vv = v[:2] @ v[:2]
+            if vv > 1e-12:
+                x = x + v * ((q - x[:2]) @ v[:2]) / vv
+        m = th.shape[1]
+        k = 0
+        if fp is None:
+            cg = x[0] * e1[n] + x[1] * e2[n]
+            k = 2
+        else:
+            cg = fp
+        cw = x[k] * f1[n] + x[k + 1] * f2[n]
+        k += 2
+        if kinds[0] == "C":
+            a, k = x[k:k + m], k + m
+        else:
+            a = pitches[0] * th[n]
+        b = x[k:k + m] if kinds[1] == "C" else pitches[1] * ph[n]
+        out.append(_finish(task, kinds, pitches, g[n], cg, w[n], cw, th[n], a, ph[n], b,
+                           params or {}))
+    return out
+
+
+def _types(kind_fixed, kind_moving, pf, pm):
+    k = (("R" if pf == 0 else "H") if kind_fixed != "C" else "C",
+         ("R" if pm == 0 else "H") if kind_moving != "C" else "C")
+    return "".join(k)
+
+
+def rc_links(s12, s13, fixed_direction, *, fixed_pitch: float = 0.0) -> list[BinaryLink]:
+    """The RC (or HC) link through three positions for a chosen fixed-axis direction.
+
+    The RC links through three positions form a two-parameter family: any fixed-axis
+    direction g (where the moving axis is determined) gives exactly one link.
+
+    Parameters
+    ----------
+    s12, s13 : Screw
+        Displacements from position 1 to positions 2 and 3.
+    fixed_direction : array_like, shape (3,)
+        Unit direction of the fixed (revolute or helical) axis: the free parameters
+        (two, dimensionless); g and −g give the same link.
+    fixed_pitch : float
+        Pitch of the fixed joint (length / rad): 0 for R (default), else H.
+
+    Returns
+    -------
+    list of one BinaryLink (types ``"RC"`` or ``"HC"``), ``parameters`` holding the
+    direction.
+
+    Raises
+    ------
+    SynthesisError
+        Bad input (naming it), coincident positions, a pure-translation relative
+        screw, or a direction for which the link degenerates (named).
+    """
+    task = _task([_screw(s12, "s12"), _screw(s13, "s13")], "s12, s13", (3,))
+    g = unit(fixed_direction, "fixed_direction")
+    pf = number(fixed_pitch, "fixed_pitch", unit_="length/rad")
+    _check_rotations(task, "s12, s13")
+    types = _types("R", "C", pf, 0)
+    link = _solve_square(task, types, (pf / task.L, 0.0), g, what="fixed_direction")
+    link.parameters = {"fixed_direction": g.copy()}
+    return [link]
+
+
+def cr_links(s12, s13, fixed_direction, *, moving_pitch: float = 0.0) -> list[BinaryLink]:
+    """The CR (or CH) link through three positions for a chosen fixed-axis direction.
+
+    Parameters
+    ----------
+    s12, s13 : Screw
+        Displacements from position 1 to positions 2 and 3.
+    fixed_direction : array_like, shape (3,)
+        Unit direction of the fixed (cylindrical) axis: the two free parameters.
+    moving_pitch : float
+        Pitch of the moving joint (length / rad): 0 for R (default), else H.
+
+    Returns
+    -------
+    list of one BinaryLink (``"CR"`` or ``"CH"``).
+
+    Raises
+    ------
+    SynthesisError
+        As :func:`rc_links`.
+    """
+    task = _task([_screw(s12, "s12"), _screw(s13, "s13")], "s12, s13", (3,))
+    g = unit(fixed_direction, "fixed_direction")
+    pm = number(moving_pitch, "moving_pitch", unit_="length/rad")
+    _check_rotations(task, "s12, s13")
+    types = _types("C", "R", 0, pm)
+    link = _solve_square(task, types, (0.0, pm / task.L), g, what="fixed_direction")
+    link.parameters = {"fixed_direction": g.copy()}
+    return [link]
+
+
+def cc_direction_residual(screws, fixed_direction) -> float:
+    """How far ``fixed_direction`` is from admitting a CC (or any R/H/C) link through the
+    positions: the smallest singular value of the rows ``gᵀ (R_j − I)`` (j = 2…n), which
+    vanishes when one moving-axis direction keeps a constant angle with g in every
+    position (dimensionless; always 0 for three positions)."""
+    task = _task(screws, "screws", (3, 4, 5))
+    g = unit(fixed_direction, "fixed_direction")
+    B = np.einsum("mji,j->mi", task.R - np.eye(3), g)
+    return float(np.linalg.svd(B, compute_uv=False)[-1]) if len(B) >= 3 else 0.0
+
+
+def cc_directions(screws, azimuth: float) -> np.ndarray:
+    """The fixed-axis directions admissible for CC (or RC, HC, ...) links through four
+    positions whose azimuth about z is ``azimuth``.
+
+    Through four positions a moving direction w with ``gᵀ (R_j − I) w = 0`` (j = 2, 3, 4)
+    exists only where ``det [(R_j − I)ᵀ g] = 0``, a cubic cone of directions g.  On the
+    half great circle ``g(β) = cos β z + sin β (cos ψ x + sin ψ y)``, β ∈ [0, π), the
+    determinant is a homogeneous cubic in (cos β, sin β): its real roots are the
+    admissible directions (one to three).
+
+    Parameters
+    ----------
+    screws : sequence of three Screw
+        S_12, S_13, S_14.
+    azimuth : float
+        ψ (rad): the half-plane through the z axis the direction is taken in.
+
+    Returns
+    -------
+    numpy.ndarray, shape (k, 3)
+        Unit directions, k ≤ 3 (ordered by β).
+    """
+    task = _task(screws, "screws", (4,))
+    psi = number(azimuth, "azimuth", unit_="rad")
+    return _cubic_directions(task, psi)
+
+
+def _cubic_directions(task, psi):
+    a = np.array([0.0, 0.0, 1.0])
+    b = np.array([np.cos(psi), np.sin(psi), 0.0])
+    M = task.R - np.eye(3)
+
+    def det(x, y):
+        g = x * a + y * b
+        return np.linalg.det(np.einsum("mji,j->mi", M, g))
+    xs = np.array([[1, 0], [0, 1], [1, 1], [1, -1]], float)
+    V = np.array([[x ** 3, x * x * y, x * y * y, y ** 3] for x, y in xs])
+    c = np.linalg.solve(V, [det(x, y) for x, y in xs])           # c0 x³ + c1 x²y + c2 xy² + c3 y³
+    scale = np.abs(c).max()
+    if scale == 0:
+        raise SynthesisError("azimuth: degenerate: every direction of this half-plane is "
+                             "admissible (the direction conditions vanish identically)")
+    betas = []
+    if abs(c[3]) <= 1e-12 * scale:                               # root at x = 0 (β = π/2)
+        betas.append(np.pi / 2)
+    for t in np.roots(c[::-1] if abs(c[3]) > 1e-12 * scale else c[2::-1]):
+        if abs(t.imag) <= 1e-9 * max(1.0, abs(t)):
+            betas.append(float(np.arctan(t.real)) % np.pi)
+    betas = sorted(set(np.round(betas, 15)))
+    out = []
+    for beta in betas:                                          # polish on the circle
+        for _ in range(3):
+            h = 1e-7
+            f0 = det(np.cos(beta), np.sin(beta))
+            d = (det(np.cos(beta + h), np.sin(beta + h)) - det(np.cos(beta - h), np.sin(beta - h))) / (2 * h)
+            if d != 0:
+                beta -= f0 / d
+        out.append(np.cos(beta) * a + np.sin(beta) * b)
+    return np.array(out).reshape(-1, 3)
+
+
+def cc_links(screws, *, fixed_axis: Line | None = None, fixed_direction=None, fixed_point=None,
+             azimuth: float | None = None, samples: int = 20000,
+             tol: float = 1e-9) -> list[BinaryLink]:
+    """CC links (two cylindrical joints) through three, four or five positions.
+
+    Parameters
+    ----------
+    screws : sequence of 2, 3 or 4 Screw
+        S_12 … S_1n for n = 3, 4, 5 positions.
+    fixed_axis : Line, optional
+        Three positions: the fixed axis (direction and point, 4 free parameters,
+        length of the task for the point).  Required then, else not allowed.
+    fixed_direction : array_like (3,), optional
+        Four positions: the fixed axis direction; it must lie on the one-parameter
+        curve of admissible directions (:func:`cc_direction_residual` ≤ 1e-9).
+    azimuth : float, optional
+        Four positions, instead of ``fixed_direction``: ψ (rad); every admissible
+        direction in the half-plane of azimuth ψ about z (:func:`cc_directions`)
+        gives a link.
+    fixed_point : array_like (3,), optional
+        Four positions (length): for a given direction the admissible fixed axes are a
+        one-parameter family of parallel lines (the second free parameter); the one
+        nearest this point is taken (a point of an admissible axis, e.g. the generating
+        link's, gives that axis exactly).
+    samples : int
+        Five positions: fixed-axis directions sampled on the hemisphere (≥ 100) before
+        refinement of the direction equations.
+    tol : float
+        Largest pose error accepted (rad, or translation relative to the task's reach).
+
+    Returns
+    -------
+    list of BinaryLink (``"CC"``): all links through five positions; the one link for
+    the given free parameters through three or four.
+
+    Raises
+    ------
+    SynthesisError
+        Bad or missing free parameters (named), coincident positions, pure-translation
+        relative screws, or degenerate choices.
+    """
+    task = _task(screws, "screws", (3, 4, 5))
+    n = len(task.T)
+    tol = number(tol, "tol", positive=True)
+    _check_rotations(task, "screws")
+    pit = (0.0, 0.0)
+    if n == 3:
+        if fixed_direction is not None or fixed_point is not None:
+            raise SynthesisError("fixed_direction, fixed_point: for three positions give the whole "
+                                 "fixed_axis (a Line) instead")
+        if fixed_axis is None:
+            raise SynthesisError("fixed_axis: required for three positions (CC links through "
+                                 "three positions form a 4-parameter family: the fixed axis)")
+        ax = _line(fixed_axis, "fixed_axis")
+        p = (ax.point - task.c) / task.L
+        link = _solve_square(task, "CC", pit, ax.direction, fixed_point=p, what="fixed_axis")
+        link.parameters = {"fixed_axis": ax}
+        return [link]
+    if fixed_axis is not None:
+        raise SynthesisError("fixed_axis: only for three positions")
+    if n == 4:
+        if (fixed_direction is None) == (azimuth is None) or fixed_point is None:
+            raise SynthesisError("fixed_direction or azimuth, fixed_point: for four positions give "
+                                 "fixed_point and one of fixed_direction (on the admissible "
+                                 "curve) or azimuth (rad)")
+        P = vec3(fixed_point, "fixed_point")
+        if azimuth is not None:
+            psi = number(azimuth, "azimuth", unit_="rad")
+            G = _cubic_directions(task, psi)
+            name = "azimuth"
+        else:
+            G = unit(fixed_direction, "fixed_direction")[None]
+            name = "fixed_direction"
+        out = []
+        for g in G:
+            B = np.einsum("mji,j->mi", task.R - np.eye(3), g)
+            _, s, Vt = np.linalg.svd(B)
+            if s[-1] > 1e-9:
+                raise SynthesisError(f"fixed_direction: not on the curve of admissible directions "
+                                     f"for four positions (residual {s[-1]:.1e} > 1e-9; see "
+                                     "cc_direction_residual)")
+            if s[-2] < 1e-9:
+                raise SynthesisError(f"{name}: degenerate: the moving axis direction is not "
+                                     "determined (rank of the direction conditions below 2)")
+            link = _from_directions(task, "CC", pit, g[None], Vt[-1][None],
+                                    near_point=(P - task.c) / task.L,
+                                    what=f"{name}, fixed_point")[0]
+            link.parameters = {name: psi if azimuth is not None else g.copy(),
+                               "fixed_point": P.copy()}
+            out.append(link)
+        return out
+    # five positions: the directions are isolated
+    if fixed_direction is not None or fixed_point is not None or azimuth is not None:
+        raise SynthesisError("fixed_direction, fixed_point, azimuth: not free for five positions")
+    samples = integer(samples, "samples", low=100)
+    return _cc5(task, samples, tol)
+
+
+def _directions5(g, R):
+    """The 4x3 direction conditions ``(R_j − I)ᵀ g`` as rows, their smallest singular value
+    and the null direction w, for ``g (N, 3)``."""
+    B = np.einsum("mji,nj->nmi", R - np.eye(3), g)
+    _, s, Vt = np.linalg.svd(B)
+    return s, Vt[:, -1]
+
+
+def _cc5(task, samples, tol):
+    R = task.R
+    G = _fibonacci(samples)
+    s, _ = _directions5(G, R)
+    merit = s[:, -1] / np.maximum(s[:, 0], 1e-300)
+    idx = _local_minima(G, merit)
+    gof = _tangent_batch(G[idx])
+    _, w0 = _directions5(G[idx], R)
+
+    def F(u, rows):
+        g = gof(u, rows)
+        B = np.einsum("mji,nj->nmi", R - np.eye(3), g)
+        _, _, Vt = np.linalg.svd(B)
+        w = Vt[:, -1] * np.sign(np.sum(Vt[:, -1] * w0[rows], -1))[:, None]
+        return np.einsum("nmi,ni->nm", B, w)
+
+    u, res = _batched_lm(F, np.zeros((len(idx), 2)))
+    out: list[BinaryLink] = []
+    for k in np.flatnonzero(res < 1e-11):
+        g = gof(u[k:k + 1], [k])
+        s, w = _directions5(g, R)
+        if s[0, -2] < 1e-6 * s[0, 0]:
+            continue                                 # rank < 2: moving direction not determined
+        try:
+            link = _from_directions(task, "CC", (0.0, 0.0), g, w, what="screws")[0]
+        except SynthesisError:
+            continue
+        if link.residual <= tol and not any(_same(link, o, task.L) for o in out):
+            out.append(link)
+    return out

@@ -158,6 +158,26 @@ def _sigma2(d2f, x0, x1, y0=None, y1=None):
     return np.maximum(hi, 0.0), y0, y1
 
 
+_GL16 = leggauss(16)
+
+
+def _error_estimate(F2, d2f, breaks):
+    """Error estimate of a surrogate from f'' alone: ``F2`` (its second analog) against
+    ``d2f`` at 16 Gauss–Legendre nodes on each piece of ``breaks``.  With e = F − f and
+    e(a) = e'(a) = 0: ``bound_dF`` = ∫|e''| ≥ max |e'|, ``bound_F`` = ∫(b − s)|e''(s)| ds
+    ≥ max |e| (the integrals by the quadrature, times 1 + 1e-6), ``max_d2F`` the largest |e''| at the
+    nodes (an estimate)."""
+    x0, x1 = breaks[:-1], breaks[1:]
+    h = 0.5 * (x1 - x0)
+    pts = (0.5 * (x0 + x1))[:, None] + h[:, None] * _GL16[0]
+    e = np.abs(F2(pts) - d2f(pts))
+    w = h[:, None] * _GL16[1]
+    b = breaks[-1]
+    margin = 1 + 1e-6                       # for the quadrature of |e''| (kinks at its zeros)
+    return {"max_d2F": float(e.max()), "bound_dF": margin * float(np.sum(w * e)),
+            "bound_F": margin * float(np.sum(w * e * (b - pts)))}
+
+
 def interval_sigma(d2f, x0, x1, y0, y1, gamma):
     """σ of intervals ``[x0, x1]`` whose chord runs from ``y0`` to ``y1`` (vectorised):
     formula (1), ``σ = sqrt(γ ∫ (chord − f'')² dx)``."""
@@ -242,6 +262,9 @@ class PiecewiseAnalog(TransferFunction):
         Coefficients of formula (3) per interval (global powers of x).
     sigma : numpy.ndarray (n,)
         Error (1) of each interval.
+    error : dict
+        With f'' known: ``max_d2F``, ``bound_dF`` ≥ max |F' − f'|, ``bound_F`` ≥ max |F − f|
+        (the estimate every surrogate carries; see :mod:`approx.surrogate`).
     gamma : float
         The weight used in (1); ``gamma_rule`` says where it came from.
     extrapolate : bool
@@ -266,6 +289,7 @@ class PiecewiseAnalog(TransferFunction):
     info: dict = field(default_factory=dict)
     fk: np.ndarray | None = None
     dfk: np.ndarray | None = None
+    error: dict = field(default_factory=dict)
 
     def __repr__(self) -> str:
         n = len(self.knots) - 1
@@ -326,7 +350,12 @@ class PiecewiseAnalog(TransferFunction):
         d = fk[:-1] - ((k * xi / 6 + b / 2) * xi + c) * xi
         sigma = interval_sigma(d2f, x[:-1], x[1:], y[:-1], y[1:], gamma) if d2f is not None \
             else np.full(n, np.nan)
-        return cls(x, y, k, b, c, d, sigma, float(gamma), fk=fk, dfk=dfk, **kw)
+        an = cls(x, y, k, b, c, d, sigma, float(gamma), fk=fk, dfk=dfk, **kw)
+        if d2f is not None:
+            ext, an.extrapolate = an.extrapolate, True
+            an.error = _error_estimate(an.acceleration, d2f, x)
+            an.extrapolate = ext
+        return an
 
     # ---------------------------------------------------------------- evaluation
     @property
@@ -373,6 +402,13 @@ class PiecewiseAnalog(TransferFunction):
         """F''(x): the second (acceleration) analog."""
         t, i = self._interval(x)
         return np.take(self.k, i) * t + np.take(self.y, i)
+
+    def all(self, x):
+        """``(F, F', F'')`` at x with one interval search."""
+        t, i = self._interval(x)
+        k, y, dfk = np.take(self.k, i), np.take(self.y, i), np.take(self.dfk, i)
+        return ((((k / 6) * t + y / 2) * t + dfk) * t + np.take(self.fk, i),
+                (k / 2 * t + y) * t + dfk, k * t + y)
 
     @property
     def table(self) -> pd.DataFrame:

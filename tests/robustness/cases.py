@@ -631,6 +631,85 @@ for arg in ("x", "xd", "xdd"):
         lambda arg=arg: _td().drive(0.0, **{"x": 0.5, "xd": 1.0, "xdd": 0.0, arg: NAN}), arg)
 bad(A, "TransferDynamics.drive:t=nan", lambda: approx.TransferDynamics(
     analog(), 1.0, load=lambda t, x, xd: 0.0).drive(NAN, 0.5, 1.0, 0.0), "t")
+for label, v in [("unknown", "rms"), ("int", 1), ("None", None)]:
+    bad(A, f"fit:sigma_rule={label}", lambda v=v: approx.fit(*F3, 0.0, 1.0, n=2, sigma_rule=v),
+        "sigma_rule")
+# the surrogate family (issue 16): fit_spline, fit_chebyshev, choose and the analogs
+sp_good = dict(f=F3[0], df=F3[1], d2f=F3[2], a=0.0, b=1.0)
+for fname, fn, extra in (("fit_spline", approx.fit_spline, dict(n=4)),
+                         ("fit_chebyshev", approx.fit_chebyshev, dict(degree=4)),
+                         ("choose", approx.choose, dict(tol=1e-3))):
+    kw = tuple(extra)
+    for arg in ("f", "df", "d2f"):
+        each(A, fname, fn, dict(sp_good, **extra), arg, [("int", 3), ("str", "x**3"), ("None", None)],
+             kwargs=kw)
+    for arg in ("a", "b"):
+        each(A, fname, fn, dict(sp_good, **extra), arg, scalar_variants(arrays=True), kwargs=kw)
+    bad(A, f"{fname}:b<a", lambda fn=fn, extra=extra: fn(*F3, 1.0, 0.0, **extra), "b")
+    bad(A, f"{fname}:d2f=returns-nan",
+        lambda fn=fn, extra=extra: fn(F3[0], F3[1], lambda x: x * NAN, 0.0, 1.0, **extra), "d2f")
+for fname, fn, extra in (("fit_spline", approx.fit_spline, dict(n=4)),
+                         ("fit_chebyshev", approx.fit_chebyshev, dict(degree=4))):
+    for label, v in [("str", "yes"), ("int", 1), ("None", None)]:
+        bad(A, f"{fname}:extrapolate={label}",
+            lambda fn=fn, extra=extra, v=v: fn(*F3, 0.0, 1.0, extrapolate=v, **extra), "extrapolate")
+each(A, "fit_spline", approx.fit_spline, dict(sp_good, n=4), "n",
+     index_variants(high=approx.MAX_N + 1) + [("zero", 0), ("str-int", "4")], kwargs=("n",))
+each(A, "fit_spline", approx.fit_spline, dict(sp_good, knots=[0.0, 0.5, 1.0]), "knots",
+     array_variants([0.0, 0.5, 1.0], empty=True) +
+     [("decreasing", [1.0, 0.5, 0.0]), ("one", [0.0]), ("not-spanning", [0.0, 0.5])],
+     kwargs=("knots",))
+bad(A, "fit_spline:none-of-n-knots", lambda: approx.fit_spline(*F3, 0.0, 1.0), "knots")
+bad(A, "fit_spline:n-and-knots", lambda: approx.fit_spline(*F3, 0.0, 1.0, n=2, knots=[0.0, 1.0]), "n")
+for label, v in [("unknown", "periodic"), ("int", 1), ("None", None)]:
+    bad(A, f"fit_spline:bc={label}", lambda v=v: approx.fit_spline(*F3, 0.0, 1.0, n=2, bc=v), "bc")
+each(A, "fit_chebyshev", approx.fit_chebyshev, dict(sp_good, degree=4), "degree",
+     index_variants(high=approx.MAX_DEGREE + 1) + [("str-int", "4")], kwargs=("degree",))
+each(A, "choose", approx.choose, dict(sp_good, tol=1e-3), "tol", scalar_variants(positive=True),
+     kwargs=("tol",))
+for arg, vs in (("target", [("unknown", "speed"), ("int", 1), ("None", None)]),
+                ("cost", [("unknown", "money"), ("int", 1), ("None", None)]),
+                ("kinds", [("unknown", ["pade"]), ("empty", []), ("int", 3), ("None", None),
+                           ("repeated", ["spline", "spline"])]),
+                ("samples", index_variants() + [("one", 1), ("too-large", 10 ** 7)])):
+    each(A, "choose", approx.choose, dict(sp_good, tol=1e-3), arg, vs, kwargs=("tol", arg))
+bad(A, "choose:tol=unreachable",
+    lambda: approx.choose(np.sin, np.cos, lambda x: -np.sin(x), 0.0, 50.0, tol=1e-30,
+                          kinds=["chebyshev"]), "tol")
+
+
+@cache
+def _spline():
+    return approx.fit_spline(*cubic(), 0.0, 1.0, n=4)
+
+
+@cache
+def _cheb():
+    return approx.fit_chebyshev(*cubic(), 0.0, 1.0, degree=4)
+
+
+for cname, make in (("SplineAnalog", _spline), ("ChebyshevAnalog", _cheb)):
+    for meth in ("position", "velocity", "acceleration", "all"):
+        for label, v in no(array_variants([0.2, 0.5], bools=True), "short", "empty") + [
+                ("outside", 1.5), ("below", -0.5), ("obj", np.array([object()]))]:
+            bad(A, f"{cname}.{meth}:x={label}", lambda make=make, meth=meth, v=v: getattr(make(), meth)(v),
+                "x")
+    for label, v in [("nan", NAN), ("str", "a")]:
+        bad(A, f"{cname}.force:x={label}", lambda make=make, v=v: make().force(v, 1.0, 0.0, 1.0), "x")
+    bad(A, f"{cname}.errors:f=str", lambda make=make: make().errors("f", F3[1], F3[2]), "f")
+
+
+@valid(A, "surrogates:cubic-exact")
+def _surrogates_exact():
+    # f'' = 6x is linear: the spline and a degree-1 Chebyshev form are exact, and choose takes
+    # the smallest Chebyshev form (5 coefficients) for a tight tolerance
+    f, df, d2f = cubic()
+    x = np.linspace(0.0, 1.0, 101)
+    ok = all(np.abs(s.position(x) - f(x)).max() < 1e-13 for s in (_spline(), _cheb()))
+    best, table = approx.choose(f, df, d2f, 0.0, 1.0, tol=1e-12)
+    return bool(ok and abs(best.position(0.7) - f(0.7)) < 1e-12 and table.chosen.sum() == 1)
+
+
 for fname in ("f3", "psi31", "dpsi31"):
     fn = getattr(cylinder, fname)
     for label, v in [("nan", NAN), ("inf", INF), ("str", "a"), ("None", None), ("complex", 1j),

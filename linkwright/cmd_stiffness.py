@@ -67,6 +67,8 @@ def _singular(study: Study, hx: Hexapod, T, cond) -> StudyError:
 
 
 def run(study: Study, out: Outputs, progress) -> dict:
+    if study.has("mechanism"):
+        return run_mechanism(study, out, progress)
     h = study.section("hexapod")
     k = h.get("leg_stiffness", "vec" if isinstance(h.data.get("leg_stiffness"), list) else "float")
     try:
@@ -305,3 +307,358 @@ def _map_section(rep: Report, mp: pd.DataFrame, hx: Hexapod, figures: bool = Tru
     rep.figure("map.png", lambda ax: heat_map(
         ax, sl, "kt_min", vary[0], vary[1] if len(vary) > 1 else None, "N/m",
         title=f"smallest translational stiffness{fixed}\n({', '.join(held)})"))
+
+
+# --------------------------------------------------------------------------- mechanisms
+
+def _mechanism_key(message: str) -> str:
+    """The key of a study a :class:`StiffnessError` of :func:`stiffness.of_mechanism` is
+    about (``springs['P0']: …`` → ``elastic.springs``)."""
+    head = message.split(":", 1)[0].strip()
+    for arg, key in (("springs", "elastic.springs"), ("locked", "elastic.locked"),
+                     ("platform", "elastic.platform"), ("point", "elastic.point"),
+                     ("wrench", "report.wrench"), ("pose", "elastic.inputs")):
+        if head == arg or head.startswith(arg + "[") or head.startswith(arg + " "):
+            return key
+    return "elastic"
+
+
+def _health(c: float) -> str:
+    return ("far from singular" if c < 10 else "well conditioned" if c < 100 else
+            "approaching a singular pose" if c < 1e4 else "near a singular pose")
+
+
+def _mechanism_inputs(study: Study):
+    """(mechanism, elastic section, platform, springs, locked, inputs, point) checked."""
+    from closure import MechanismError
+    from .mechspec import build_mechanism
+    msec = study.section("mechanism")
+    mech = build_mechanism(msec)
+    try:
+        mech.mobility                                      # assembles: inputs ≤ mobility
+    except MechanismError as e:
+        raise msec.error("input", str(e)) from None
+    e = study.section("elastic")
+    platform = e.get("platform", "str")
+    if platform not in mech.links[1:]:
+        raise e.error("platform", f"expected a moving link ({', '.join(mech.links[1:])}), "
+                                  f"got {platform!r}")
+    springs = {k: (float(v) if not isinstance(v, list) else [float(x) for x in v])
+               for k, v in e.get("springs", "any").items()}
+    locked = e.get("locked", "strs", None)
+    x = e.get("inputs", "vec")
+    labels = mech.input_labels()
+    if x.size != len(labels):
+        raise e.error("inputs", f"expected {len(labels)} values, one per input "
+                                f"({', '.join(labels)}), got {x.size}")
+    point = e.get("point", "vec3", np.zeros(3))
+    return mech, e, platform, springs, locked, x, point
+
+
+def _of_mechanism(study, e, mech, pose, **kw):
+    """:func:`stiffness.of_mechanism` with its errors as study errors (exit 2)."""
+    from stiffness import of_mechanism
+    try:
+        return of_mechanism(mech, pose, **kw)
+    except SingularPoseError as err:
+        msg = str(err).split(":", 1)[1].strip() if str(err).startswith("pose:") else str(err)
+        raise e.error("springs", msg) from None
+    except StiffnessError as err:
+        key, msg = _mechanism_key(str(err)), str(err)
+        head, _, rest = msg.partition(":")
+        if rest and key.endswith("." + head.strip()):      # the key says it already
+            msg = rest.strip()
+        raise StudyError(study.path, key, msg) from None
+
+
+def run_mechanism(study: Study, out: Outputs, progress) -> dict:
+    """A stiffness study of a mechanism: ``[mechanism]`` and ``[elastic]``."""
+    from closure import ClosureError
+    mech, e, platform, springs, locked, x, point = _mechanism_inputs(study)
+    progress(f"solving the mechanism at inputs {fmt_list(x)}")
+    try:
+        pose = mech.solve(x)
+    except ClosureError as err:
+        raise e.error("inputs", f"the mechanism does not close at these inputs: {err}") from None
+    rsec = study.section("report", required=False)
+    frame = rsec.get("frame", "str", "platform", choices=("platform", "base")) if rsec \
+        else "platform"
+    wrench = rsec.get("wrench", "vec", None, length=6) if rsec else None
+    T = np.asarray(pose.link_frame(platform), float).reshape(-1, 4, 4)[0]
+    if frame == "platform":
+        R, p = T[:3, :3].T, T[:3, :3] @ point + T[:3, 3]
+    else:
+        R, p = np.eye(3), np.zeros(3)
+    kw = dict(platform=platform, springs=springs, locked=locked, frame=(R, p))
+    res = _of_mechanism(study, e, mech, pose, **kw)
+    loaded = _of_mechanism(study, e, mech, pose, wrench=wrench, **kw) if wrench is not None \
+        else None
+    values = None
+    msec = study.section("map", required=False)
+    if msec:
+        values = _input_grid(msec, len(x))
+    title = study.section("study", required=False)
+    title = title.get("title", "str", "Mechanism stiffness report") if title else \
+        "Mechanism stiffness report"
+    rep, tables, summary = mechanism_report(
+        mech, pose, res, platform=platform, springs=springs, locked=locked, point=point,
+        frame_name=frame, wrench=wrench, loaded=loaded, map_inputs=values, title=title,
+        source=f"Study: {study.path.name}.", progress=progress)
+    for name, df in tables.items():
+        out.add_csv(name, df)
+    rep.add_to(out)
+    return summary
+
+
+def _input_grid(msec, n: int) -> np.ndarray:
+    """``[map] inputs``: the grid of input values ``(M, n)``."""
+    ranges = msec.data.get("inputs")
+    if len(ranges) != n:
+        raise msec.error("inputs", f"expected {n} ranges [from, to, count], one per input, "
+                                   f"got {len(ranges)}")
+    axes = []
+    for i, v in enumerate(ranges):
+        if v[2] < 1 or v[2] != int(v[2]) or v[2] > MAX_MAP_POSES:
+            raise msec.error(f"inputs[{i}]", "expected [from, to, count] with an integer count "
+                             f"from 1 to {MAX_MAP_POSES:,}, got {[float(a) for a in v]}")
+        axes.append(np.linspace(v[0], v[1], int(v[2])))
+    counts = [a.size for a in axes]
+    if np.prod(counts, dtype=float) > MAX_MAP_POSES:
+        raise msec.error("inputs", f"the map has {np.prod(counts, dtype=float):.3g} poses "
+                                   f"({' × '.join(map(str, counts))}); at most "
+                                   f"{MAX_MAP_POSES:,} fit one run: use fewer values per input")
+    return np.array(np.meshgrid(*axes, indexing="ij")).reshape(n, -1).T
+
+
+_W_ROWS = ["fx (N)", "fy (N)", "fz (N)", "mx (N·m)", "my (N·m)", "mz (N·m)"]
+_D_COLS = ["δx (m)", "δy (m)", "δz (m)", "θx (rad)", "θy (rad)", "θz (rad)"]
+
+
+def _matrix_table(M, rows, cols):
+    df = pd.DataFrame(M, columns=cols)
+    df.insert(0, "row", rows)
+    return df
+
+
+def _shown(M, w):
+    """``M`` for display: entries below 1e-12 of the largest (in the units made comparable
+    by the length weights ``w``) shown as 0 (rounding noise on rigid directions)."""
+    Ms = np.abs(M * w[:, None] * w[None, :])
+    return np.where(Ms > 1e-12 * Ms.max(), M, 0.0) if Ms.max() > 0 else M
+
+
+def _rigid_words(C, n_rigid: int, L: float) -> str:
+    """What the rigid directions are: the null space of C (displacements scaled by L)."""
+    if n_rigid == 0:
+        return ("no direction is held rigidly: every small motion of the platform deforms "
+                "a spring")
+    D = np.r_[np.full(3, 1 / L), np.ones(3)]
+    Cs = C * D[:, None] * D[None, :]
+    U, _, _ = np.linalg.svd(0.5 * (Cs + Cs.T))
+    N = U[:, 6 - n_rigid:]                              # rigid directions (scaled)
+    rot = float(np.linalg.norm(N[3:]) ** 2 / n_rigid)   # share of rotation in them
+    what = ("the three rotations: the platform only translates" if n_rigid == 3 and rot > 1 - 1e-6
+            else "the three translations" if n_rigid == 3 and rot < 1e-6 else
+            f"{fmt_num(100 * rot, 3)} % rotation, {fmt_num(100 * (1 - rot), 3)} % "
+            "translation: the constrained, parasitic motions")
+    return (f"{n_rigid} direction{'s' if n_rigid != 1 else ''} held rigidly ({what}); the "
+            "joints allow the platform no motion there that deforms a spring, so the links "
+            "and passive joints (modelled rigid) carry any load in them: K is zero there "
+            "(infinitely stiff) and so is C")
+
+
+def mechanism_report(mech, pose, res, *, platform: str, springs: dict, locked, point,
+                     frame_name: str, wrench=None, loaded=None, map_inputs=None,
+                     title: str = "Mechanism stiffness report", source: str = "",
+                     progress=None, figures: bool = True):
+    """The stiffness report of a mechanism's link at one solved pose (``linkwright
+    stiffness`` with ``[mechanism]``).
+
+    Parameters
+    ----------
+    mech : closure.Mechanism
+    pose : closure.Pose, one pose
+    res : MechanismStiffness at ``pose`` in the report's frame (unloaded)
+    platform, springs, locked, point
+        As in the study's ``[elastic]`` (``point``: world coordinates at assembly, m).
+    frame_name : "platform" or "base"
+    wrench : (6,) or None
+        Load case about the base origin (N, N·m); ``loaded`` its loaded stiffness.
+    map_inputs : (M, n_inputs) or None
+        Input values of the map (m or rad).
+
+    Returns
+    -------
+    (Report, dict of name → DataFrame, dict)
+        The report, its CSV tables and the JSON summary (quantities with units).
+    """
+    from .mechspec import coordinate_unit
+    K, C = res.K[0], res.C[0]
+    R, p = res.R[0], res.reference[0]
+    L = float(getattr(mech.tree, "scale", 1.0)) or 1.0
+    ct, V = _directions(C[:3, :3])                      # ascending compliance
+    cr, Vr = _directions(C[3:, 3:])
+    cr = np.where(cr * L * L > 1e-9 * ct[2], cr, 0.0)   # rounding noise of rigid rotations
+    n_rigid = int(res.rigid[0])
+    cond = float(res.condition[0])
+    axes_words = "platform axes" if frame_name == "platform" else "base axes"
+    tiny = 1e-9 * max(ct[2], 1e-300)
+    stiff = (f"stiffest along {_dir(V[:, 0])}: held rigidly (no translation that way deforms "
+             "a spring)" if ct[0] <= tiny else
+             f"stiffest along {_dir(V[:, 0])}: {fmt_q(ct[0], 'm/N')} "
+             f"({fmt_q(1 / ct[0], 'N/m')}, {fmt_num(ct[2] / ct[0], 3)} times stiffer)")
+    rep = Report(title)
+    rep.findings(
+        f"Weakest translation along {_dir(V[:, 2])}: a deflection of "
+        f"{fmt_q(ct[2], 'm/N')} (a stiffness of {fmt_q(1 / ct[2], 'N/m')}); {stiff}; "
+        f"directions in the {axes_words} about the reference point "
+        f"{fmt_q(p, 'm')}.",
+        (f"Rotational compliance up to {fmt_q(cr[2], 'rad/(N·m)')} (about {_dir(Vr[:, 2])})."
+         if cr[2] * L * L > 1e-9 * ct[2] else
+         "No rotation of the platform deforms a spring: the rotations are held rigidly."),
+        _rigid_words(C, n_rigid, L)[0].upper() + _rigid_words(C, n_rigid, L)[1:] + ".",
+        f"Loop condition {fmt_num(cond)} ({_health(cond)}; the condition number of the "
+        "dimensionless loop Jacobian over the elastic and passive coordinates).")
+    rep.text((source + " " if source else "") + f"{len(mech.links) - 1} moving links, "
+             f"{len(mech.joints)} joints, {mech.n_loops} loops, mobility {mech.mobility}. "
+             f"Platform link: {platform}. Wrench W = (f, m) in N, N·m; displacement "
+             "Δ = (δ, θ) in m, rad. K is the unloaded stiffness over the compliant "
+             "directions (the pseudo-inverse of C); C is the compliance Δ = C W.")
+    labels = mech.input_labels()
+    x = np.atleast_1d(np.asarray(pose.inputs, float)).ravel()
+    iu = [coordinate_unit(mech, lab) for lab in labels]
+    rep.heading("Pose and frame")
+    rows = [(f"input {lab}", fmt_num(v, 6), u) for lab, v, u in zip(labels, x, iu)]
+    rows += [("reference point of K (world coordinates)", fmt_list(p, 6), "m"),
+             ("reference point on the platform (at assembly)", fmt_list(point, 6), "m"),
+             ("axes of K, rows of R (r' = R (r − p))", fmt_list(R, 6), DIMENSIONLESS),
+             ("loop condition", fmt_num(cond), DIMENSIONLESS),
+             ("directions held rigidly", str(n_rigid), DIMENSIONLESS)]
+    rep.table(pd.DataFrame(rows, columns=["quantity", "value", "unit"]))
+    rep.heading("Joint coordinates")
+    unit_of = {}
+    for lab in res.elastic:
+        key = lab if lab in springs else lab.split(".")[0]
+        v = springs.get(key)
+        if isinstance(v, list):
+            names = [c for c in res.elastic if c.split(".")[0] == key]
+            v = v[names.index(lab)] if len(v) == len(names) else v[0]
+        unit_of[lab] = (v, "N/m" if coordinate_unit(mech, lab) == "m" else "N·m/rad")
+    rep.table(pd.DataFrame(
+        [("elastic", lab, fmt_q(*unit_of[lab])) for lab in res.elastic] +
+        [("locked", ", ".join(res.locked) or "none", "rigid")] +
+        [("passive", ", ".join(res.passive) or "none", "free")],
+        columns=["role", "coordinate", "stiffness"]), max_rows=None)
+    rep.heading("Stiffness matrix K")
+    rep.text("Rows: wrench components (f in N, m in N·m); columns: displacement components "
+             "(δ in m, θ in rad); an entry's unit is its row's over its column's: N/m, N/rad, "
+             "N·m/m = N, N·m/rad.")
+    wK, wC = np.r_[np.full(3, L), np.ones(3)], np.r_[np.full(3, 1 / L), np.ones(3)]
+    rep.table(_matrix_table(_shown(K, wK), _W_ROWS, _D_COLS), "{:.4e}")
+    rep.heading("Compliance matrix C")
+    rep.text("Rows: displacement components (δ in m, θ in rad); columns: wrench components "
+             "(f in N, m in N·m): m/N, m/(N·m), rad/N, rad/(N·m).")
+    rep.table(_matrix_table(_shown(C, wC), _D_COLS, _W_ROWS), "{:.4e}")
+    tables = {"stiffness.csv": pd.DataFrame(K, columns=["dx", "dy", "dz", "tx", "ty", "tz"])
+              .assign(row=["fx", "fy", "fz", "mx", "my", "mz"]),
+              "compliance.csv": pd.DataFrame(C, columns=["fx", "fy", "fz", "mx", "my", "mz"])
+              .assign(row=["dx", "dy", "dz", "tx", "ty", "tz"])}
+    summary = {"command": "stiffness", "kind": "mechanism", "frame": frame_name,
+               "platform": platform,
+               "kt_weakest": quantity(1 / ct[2], "N/m"),
+               "ct_max": quantity(ct[2], "m/N"),
+               "weakest_direction": quantity(np.round(V[:, 2], 6) + 0.0, DIMENSIONLESS),
+               "cr_max": quantity(cr[2], "rad/(N·m)"),
+               "rigid_directions": n_rigid,
+               "condition": quantity(cond, DIMENSIONLESS),
+               "reference": quantity(p, "m")}
+    if wrench is not None and loaded is not None:
+        W = np.asarray(wrench, float)
+        Wp = np.r_[R @ W[:3], R @ (W[3:] - np.cross(p, W[:3]))]   # about p, in the frame's axes
+        d = C @ Wp
+        Kl = loaded.K[0]
+        change = float(np.abs(Kl - K).max() / np.abs(K).max())
+        asym = float(np.abs(Kl - Kl.T).max() / np.abs(Kl).max())
+        rep.heading("Load case (wrench about the base origin)")
+        rep.text(f"W = f {fmt_q(W[:3], 'N')}, m {fmt_q(W[3:], 'N·m')} about the base origin; "
+                 f"about the reference point in the {axes_words}: f {fmt_q(Wp[:3], 'N')}, "
+                 f"m {fmt_q(Wp[3:], 'N·m')}. The loaded stiffness adds the geometric term of "
+                 "the joint forces that carry the load (not symmetric in general); the "
+                 "deflection is the linear one, Δ = C W.")
+        rep.table(pd.DataFrame([("translation δ", fmt_list(d[:3]), "m"),
+                                ("rotation θ", fmt_list(d[3:]), "rad")],
+                               columns=["deflection of the reference point", "value", "unit"]))
+        rep.heading("Loaded stiffness matrix", 3)
+        rep.table(_matrix_table(_shown(Kl, wK), _W_ROWS, _D_COLS), "{:.4e}")
+        rep.findings(f"Under the load case: deflection δ = {fmt_q(d[:3], 'm', 3)}, "
+                     f"θ = {fmt_q(d[3:], 'rad', 3)} ({fmt_q(np.linalg.norm(d[:3]), 'm', 3)} in "
+                     f"all); the load changes K by up to {fmt_num(100 * change, 3)} % of its "
+                     f"largest entry (asymmetry {fmt_num(100 * asym, 3)} %).")
+        tables["loaded_stiffness.csv"] = pd.DataFrame(
+            Kl, columns=["dx", "dy", "dz", "tx", "ty", "tz"]).assign(
+            row=["fx", "fy", "fz", "mx", "my", "mz"])
+        summary["deflection_translation"] = quantity(d[:3], "m")
+        summary["deflection_rotation"] = quantity(d[3:], "rad")
+        summary["loaded_change"] = quantity(change, DIMENSIONLESS)
+    if map_inputs is not None:
+        from stiffness import mechanism_map
+        if progress is not None:
+            progress(f"stiffness map over {len(map_inputs)} poses")
+        mpose = mech.solve(map_inputs, raise_on_failure=False)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)
+            mp = mechanism_map(mech, mpose, platform=platform, springs=springs, locked=locked,
+                               point=point)
+        tables["map.csv"] = mp
+        _mechanism_map_section(rep, mp, labels, iu, figures)
+        good = mp[mp.ok & ~mp.free]
+        summary["map_poses"] = int(len(mp))
+        summary["map_not_closed"] = int((~mp.ok).sum())
+        summary["map_free"] = int(mp.free.sum())
+        summary["map_ct_max"] = quantity(float(good.ct_max.max()) if len(good) else None, "m/N")
+    return rep, tables, summary
+
+
+def _mechanism_map_section(rep, mp, labels, iu, figures=True):
+    units = {"ct_max": "m/N", "cr_max": "rad/(N·m)", "condition": DIMENSIONLESS}
+    vary = [lab for lab in labels if mp[lab].nunique() > 1]
+    good = mp[mp.ok & ~mp.free]
+    rep.heading("Map over the inputs")
+    rep.text(f"{len(mp)} poses; varying: {', '.join(vary) or 'nothing (one pose)'}; indices "
+             f"about the reference point on the platform, in its axes; "
+             f"{int((~mp.ok).sum())} poses do not close, {int(mp.free.sum())} have a free "
+             "motion (infinite compliance).")
+    rep.table(pd.DataFrame([(col, float(good[col].min()) if len(good) else np.nan,
+                             float(good[col].max()) if len(good) else np.nan, units[col])
+                            for col in units], columns=["index", "min", "max", "unit"]), "{:.5g}")
+    rep.table(mp, "{:.5g}", units={**{lab: u for lab, u in zip(labels, iu)},
+                                   "x": "m", "y": "m", "z": "m", "rigid": DIMENSIONLESS,
+                                   **units})
+    if len(good):
+        i = good.ct_max.idxmax()
+        at = ", ".join(f"{lab} = {fmt_q(mp.loc[i, lab], u)}" for lab, u in zip(labels, iu))
+        rep.findings(f"Over the map ({len(mp)} poses): largest translational compliance "
+                     f"{fmt_q(good.ct_max.min(), 'm/N')} to {fmt_q(good.ct_max.max(), 'm/N')} "
+                     f"(the weakest at {at}); {int((~mp.ok).sum())} poses do not close, "
+                     f"{int(mp.free.sum())} with a free motion.")
+    if not vary or not figures or not len(good):
+        return
+    from .render import heat_map
+    cols = {}
+    for lab, u in zip(labels, iu):
+        name = f"{lab} ({'deg' if u == 'rad' else u})"
+        cols[lab] = name
+    df = pd.DataFrame({cols[lab]: np.degrees(mp[lab]) if u == "rad" else mp[lab]
+                       for lab, u in zip(labels, iu)})
+    df["ct_max"] = mp.ct_max.where(mp.ok & ~mp.free)
+    sl, fixed = df, ""
+    if len(vary) > 2:
+        third = cols[vary[2]]
+        sl = df[df[third] == df[third].iloc[0]]
+        fixed = f", {third} = {fmt_num(sl[third].iloc[0])}"
+    held = [f"{lab} = {fmt_num(sl[cols[lab]].iloc[0])} {'deg' if u == 'rad' else u}"
+            for lab, u in zip(labels, iu) if lab not in vary]
+    held = f"\n({', '.join(held)})" if held else ""
+    rep.figure("map.png", lambda ax: heat_map(
+        ax, sl, "ct_max", cols[vary[0]], cols[vary[1]] if len(vary) > 1 else None, "m/N",
+        title=f"largest translational compliance{fixed}{held}"))

@@ -63,6 +63,9 @@ class Section(BaseModel):
 
     model_config = ConfigDict(extra="forbid", strict=True, populate_by_name=False)
 
+    def check(self, path) -> None:
+        """Rules across sections (a :class:`StudyError` naming the file and the key)."""
+
 
 # --------------------------------------------------------------------------- common
 
@@ -156,36 +159,91 @@ class ReportSection(Section):
     """The frame of the stiffness matrix and an optional load case."""
 
     frame: Literal["platform", "base"] = F(
-        "platform", "reference point and axes of K: the platform frame, or the base origin "
-        "and axes", example="platform")
+        "platform", "reference point and axes of K: the platform frame (for a mechanism: the "
+        "platform link's axes at `elastic.point`), or the base origin and axes",
+        example="platform")
     wrench: Optional[Vec6] = F(None, "load case (f, m) about the base origin: leg forces "
-                               "and deflection", unit="N, N·m", example=[0, 0, -5000, 100, 0, 0],
+                               "and deflection (for a mechanism: the loaded stiffness and the "
+                               "deflection)", unit="N, N·m", example=[0, 0, -5000, 100, 0, 0],
                                default_text="(none: no load case)")
 
 
 class MapSection(Section):
-    """A stiffness map over platform positions (the pose's rotation held); an axis left
-    out stays at the pose's coordinate.  At most 2,000,000 poses in all."""
+    """A stiffness map.  A hexapod: over platform positions (the pose's rotation held); an
+    axis left out stays at the pose's coordinate.  A mechanism: over its inputs (`inputs`,
+    one range per input).  At most 2,000,000 poses in all."""
 
-    x: Optional[Range] = F(None, "x positions: from, to and an integer count ≥ 1", unit="m",
-                           example=[-0.15, 0.15, 13], default_text="the pose's x")
-    y: Optional[Range] = F(None, "y positions: from, to and an integer count ≥ 1", unit="m",
-                           example=[-0.15, 0.15, 13], default_text="the pose's y")
-    z: Optional[Range] = F(None, "z positions: from, to and an integer count ≥ 1", unit="m",
-                           example=[0.7, 0.7, 1], default_text="the pose's z")
+    x: Optional[Range] = F(None, "x positions (hexapod): from, to and an integer count ≥ 1",
+                           unit="m", example=[-0.15, 0.15, 13], default_text="the pose's x")
+    y: Optional[Range] = F(None, "y positions (hexapod): from, to and an integer count ≥ 1",
+                           unit="m", example=[-0.15, 0.15, 13], default_text="the pose's y")
+    z: Optional[Range] = F(None, "z positions (hexapod): from, to and an integer count ≥ 1",
+                           unit="m", example=[0.7, 0.7, 1], default_text="the pose's z")
+    inputs: Optional[Annotated[list[Range], Field(min_length=1)]] = F(
+        None, "input values (mechanism): one [from, to, count] per input, in the order of "
+        "`[[mechanism.input]]`; the map is the grid of all of them", unit="m or rad",
+        example=[[-0.03, 0.03, 7], [0.0, 0.0, 1], [0.0, 0.0, 1]],
+        default_text="(required for a mechanism's map)",
+        kind="a list of [from, to, count], one per input")
 
 
 class StiffnessStudy(Section):
-    """`linkwright stiffness`: hexapod geometry, pose, frame and load → the stiffness
-    matrix, indices, leg forces and a map (`stiffness.csv`, `leg_forces.csv`, `map.csv`,
-    `report.md`, `report.html`)."""
+    """`linkwright stiffness`: a hexapod (`[hexapod]` and `[pose]`) or any mechanism
+    (`[mechanism]` and `[elastic]`: exactly one of the two), a frame and a load → the
+    stiffness and compliance matrices, indices, leg forces or the loaded stiffness, and a
+    map (`stiffness.csv`, `compliance.csv` (mechanism), `leg_forces.csv` (hexapod),
+    `map.csv`, `report.md`, `report.html`)."""
 
     study: Optional[StudySection] = F(None, "what the file is", default_text="(none)")
-    hexapod: HexapodSection = F(doc="geometry and leg stiffness")
-    pose: PoseSection = F(doc="the platform pose")
+    hexapod: Optional[HexapodSection] = F(None, "geometry and leg stiffness",
+                                          default_text="(or [mechanism])")
+    pose: Optional[PoseSection] = F(None, "the platform pose (with [hexapod])",
+                                    default_text="(required with [hexapod])")
+    mechanism: Optional["MechanismSection"] = F(None, "any mechanism, built from joints "
+                                                "(as in `analyze` studies)",
+                                                default_text="(or [hexapod])")
+    elastic: Optional["ElasticSection"] = F(None, "platform, springs and pose of the "
+                                            "mechanism (with [mechanism])",
+                                            default_text="(required with [mechanism])")
     report: Optional[ReportSection] = F(None, "frame and load case",
                                         default_text="platform frame, no load")
     map: Optional[MapSection] = F(None, "a stiffness map", default_text="(no map)")
+
+    def check(self, path) -> None:
+        """Exactly one of `[hexapod]` (with `[pose]`) and `[mechanism]` (with `[elastic]`),
+        and the `[map]` keys of that kind."""
+        hx, mech = self.hexapod is not None, self.mechanism is not None
+        if hx and mech:
+            raise StudyError(path, "mechanism", "a stiffness study gives either [hexapod] "
+                             "(with [pose]) or [mechanism] (with [elastic]), not both")
+        if not hx and not mech:
+            raise StudyError(path, "hexapod", "missing: a stiffness study gives [hexapod] "
+                             "(with [pose]) or [mechanism] (with [elastic])")
+        if hx:
+            if self.pose is None:
+                raise StudyError(path, "pose", "missing section [pose] (required with "
+                                 "[hexapod])")
+            if self.elastic is not None:
+                raise StudyError(path, "elastic", "[elastic] goes with [mechanism], not "
+                                 "with [hexapod]")
+            if self.map is not None and self.map.inputs is not None:
+                raise StudyError(path, "map.inputs", "a mechanism's key: a hexapod's map "
+                                 "takes x, y and z")
+        else:
+            if self.elastic is None:
+                raise StudyError(path, "elastic", "missing section [elastic] (required with "
+                                 "[mechanism]: platform, springs and inputs)")
+            if self.pose is not None:
+                raise StudyError(path, "pose", "[pose] goes with [hexapod]; a mechanism's "
+                                 "pose is `elastic.inputs`")
+            if self.map is not None:
+                for k in ("x", "y", "z"):
+                    if getattr(self.map, k) is not None:
+                        raise StudyError(path, f"map.{k}", "a hexapod's key: a mechanism's "
+                                         "map takes `inputs` (one [from, to, count] per input)")
+                if self.map.inputs is None:
+                    raise StudyError(path, "map.inputs", "missing; a mechanism's map takes "
+                                     "one [from, to, count] per input")
 
 
 # --------------------------------------------------------------------------- mechanisms
@@ -225,6 +283,44 @@ class MechanismSection(Section):
                      example=["crank", "coupler", "rocker"])
     joint: Annotated[list[JointSection], Field(min_length=1)] = F(doc="the joints")
     input: Annotated[list[InputSection], Field(min_length=1)] = F(doc="the inputs")
+
+
+Stiffnesses = Annotated[dict[Name, Union[Annotated[Number, Field(gt=0)],
+                                         Annotated[list[Annotated[Number, Field(gt=0)]],
+                                                   Field(min_length=1)]]],
+                        Field(min_length=1),
+                        Kind("a table {joint or \"joint.coordinate\" = a number > 0, or a list "
+                             "of numbers > 0, one per coordinate}")]
+
+
+class ElasticSection(Section):
+    """The mechanism's elastic model and pose for `linkwright stiffness`: which link is the
+    platform, the joint springs, the locked joints and the input values.  Joints and
+    coordinates without a spring are passive (free), except the locked ones; by default the
+    inputs without a spring are locked (actuators held)."""
+
+    platform: Name = F(doc="the link whose stiffness is wanted (the moving platform, the "
+                           "tool holder)", example="head")
+    springs: Stiffnesses = F(
+        doc="spring of each elastic joint or coordinate (`S0.wx`, `C1.s`, …): one number for "
+            "every coordinate of the joint, or one per coordinate; N/m for slides (P, the `s` "
+            "of C), N·m/rad for rotations", unit="N/m or N·m/rad",
+        example={"P0": 2.0e7, "P1": 2.0e7, "P2": 2.0e7})
+    locked: Optional[list[Name]] = F(None, "joints or coordinates held rigidly",
+                                     example=["R0"],
+                                     default_text="the inputs without a spring",
+                                     kind="a list of joint or coordinate names")
+    inputs: Annotated[list[Number], Field(min_length=1)] = F(
+        doc="the pose: one value per input, in the order of `[[mechanism.input]]` (0 is the "
+            "drawn assembly pose)", unit="m or rad", example=[0.01, -0.005, 0.0],
+        kind="a list of numbers, one per input")
+    point: Optional[Vec3] = F(None, "reference point of K on the platform, given by its world "
+                              "coordinates at the assembly pose (the tool centre)", unit="m",
+                              example=[0.0, 0.0, 0.35],
+                              default_text="the platform link's origin")
+
+
+StiffnessStudy.model_rebuild()
 
 
 class SweepSection(Section):
@@ -462,6 +558,28 @@ _PRIORITY = {"extra_forbidden": 0, "missing": 0, "finite_number": 1, "greater_th
 
 
 def _translate(path, schema, raw, err) -> tuple[str, str]:
+    """(dotted key, message) of one pydantic error; in a table of the user's own names
+    (:data:`FREE_TABLES`) the message names the entry and shows its value."""
+    key, message = _translate_key(path, schema, raw, err)
+    n = key.count(".") + 1
+    loc = err["loc"]
+    if key in FREE_TABLES and "[" not in key:
+        value = raw
+        for part in key.split("."):
+            value = value.get(part) if isinstance(value, dict) else None
+        if value != {} and not (len(loc) > n and isinstance(loc[n], str)):
+            return key, message
+        if value == {}:
+            message = message.replace("got a table (table)", "got an empty table")
+        elif isinstance(value, dict) and loc[n] in value:
+            v = value[loc[n]]
+            message = message.replace("got a table (table)", f"got {_show(v)} ({_toml_type(v)})")
+            message = message.replace("got a table", f"got {_show(v)}")
+            message = f"{loc[n]}: {message}"
+    return key, message
+
+
+def _translate_key(path, schema, raw, err) -> tuple[str, str]:
     """(dotted key, message) of one pydantic error."""
     loc, typ = err["loc"], err["type"]
     cls, parts, value, field, i = schema, [], raw, None, 0
@@ -544,13 +662,15 @@ def validate(path, data: dict, command: str) -> Section:
     """
     schema = SCHEMAS[command]
     try:
-        return schema.model_validate(data)
+        model = schema.model_validate(data)
     except ValidationError as e:
         found = [(_translate(path, schema, data, err), err) for err in e.errors()]
         first_key = found[0][0][0]
         same = [f for f in found if f[0][0] == first_key]
         (key, message), _ = min(same, key=lambda f: _PRIORITY.get(f[1]["type"], 9))
         raise StudyError(path, key, message) from None
+    model.check(path)
+    return model
 
 
 def dump(model: Section) -> dict:
@@ -669,13 +789,18 @@ def reference_markdown() -> str:
     return "\n".join(intro) + "\n" + "\n".join(body).rstrip("\n") + "\n"
 
 
+#: keys whose value is a table of the user's own names (joints → stiffness), not sections
+FREE_TABLES = {"elastic.springs"}
+
+
 def example_keys(data: dict, prefix: str = "") -> set[str]:
-    """Every dotted key (tables and values) used by a study's data."""
+    """Every dotted key (tables and values) used by a study's data (the entries of a
+    table of the user's own names, :data:`FREE_TABLES`, are not keys of the schema)."""
     out = set()
     for k, v in data.items():
         full = prefix + k
         out.add(full)
-        if isinstance(v, dict):
+        if isinstance(v, dict) and full not in FREE_TABLES:
             out |= example_keys(v, full + ".")
         elif isinstance(v, list) and v and all(isinstance(x, dict) for x in v):
             for x in v:

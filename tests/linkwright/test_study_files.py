@@ -25,7 +25,8 @@ EX = examples_folder()
 DOC = ROOT / "docs" / "study-files.md"
 COMMAND_OF = {"seed001_rrr.toml": "synth", "hexapod.toml": "stiffness",
               "seed004_cylinder.toml": "approx", "fourbar_dynamics.toml": "analyze",
-              "seed000_swash_plate.toml": "analyze"}
+              "seed000_swash_plate.toml": "analyze", "three_rps_head.toml": "stiffness",
+              "delta_robot.toml": "stiffness"}
 
 
 def run(args, capsys):

@@ -170,12 +170,23 @@ def test_a_failed_pose_is_refused():
 
 def _three_legged(kind):
     """A 3-RPS (R at the base tangent to its circle, P along the leg, S at the platform) or a
-    3-PRS (vertical actuated P, R tangent, a rigid leg, S), drawn symmetric at height 1."""
+    3-PRS (vertical actuated P, R tangent, a rigid leg, S), drawn symmetric at height 1; or a
+    planar 3-RPR (R, P along the leg, R, all axes along z; the platform turned by 40°)."""
     ang = np.radians([90, 210, 330])
     radial = np.c_[np.cos(ang), np.sin(ang), np.zeros(3)]
     tangent = np.c_[-np.sin(ang), np.cos(ang), np.zeros(3)]
     base, plat = 1.0 * radial, 0.5 * radial + [0, 0, 1.0]
     m = Mechanism([f"a{i}" for i in range(3)] + [f"b{i}" for i in range(3)] + ["platform"])
+    if kind == "RPR":
+        turned = np.radians([130, 250, 370])
+        plat = 0.5 * np.c_[np.cos(turned), np.sin(turned), np.zeros(3)]
+        for i in range(3):
+            leg = plat[i] - base[i]
+            m.add_joint(f"R{i}", "R", "ground", f"a{i}", at=frame([0, 0, 1], leg, base[i]))
+            m.add_joint(f"P{i}", "P", f"a{i}", f"b{i}", at=frame(leg, [0, 0, 1], base[i]))
+            m.add_joint(f"T{i}", "R", f"b{i}", "platform", at=frame([0, 0, 1], leg, plat[i]))
+            m.add_input(f"P{i}")
+        return m
     for i in range(3):
         if kind == "RPS":
             leg = plat[i] - base[i]
@@ -190,9 +201,10 @@ def _three_legged(kind):
     return m
 
 
-@pytest.mark.parametrize("kind, all_joints", [("RPS", True), ("RPS", False), ("PRS", False)])
+@pytest.mark.parametrize("kind, all_joints", [("RPS", True), ("RPS", False), ("PRS", False),
+                                              ("RPR", False)])
 def test_three_legged_against_fd_hessian_of_the_elastic_energy(kind, all_joints):
-    """K of a 3-RPS / 3-PRS against an independent reference built from the engine's solve
+    """K of a 3-RPS / 3-PRS / planar 3-RPR against an independent reference built from the engine's solve
     only: the platform's motion and every joint's deflection as functions of the three inputs
     s (central differences of solved poses), the elastic energy's Hessian in s by second
     differences of U(s), and C = A H⁻¹ Aᵀ.  Three directions are rigid (the legs' joints

@@ -20,7 +20,7 @@ import numpy as np
 from .errors import MechanismError
 from .checks import shown
 from .frames import as_array, as_index, cross
-from .solver import _expected_rank, _pinv_parts
+from .solver import _LstSq, _expected_rank
 
 __all__ = ["analogs", "bracket", "link_twists", "point_analogs", "joint_analogs"]
 
@@ -84,10 +84,10 @@ def analogs(mech, pose, second: bool = True, ks=None):
     # solve in dimensionless coordinates for a meaningful truncation
     L = t.scale
     Js = mech._scaled_jacobian(ks)
-    U, inv_s, Vt, _ = _pinv_parts(Js[:, :, unknown], _expected_rank(mech))
+    lstsq = _LstSq(Js[:, :, unknown], _expected_rank(mech))
 
     def solve_unknown(rhs_scaled):      # rhs (B, m, k) → (B, nu, k) dimensionless
-        return np.einsum("bkn,bk,bmk,bmj->bnj", Vt, inv_s, U, rhs_scaled)
+        return lstsq.solve(rhs_scaled)
 
     row_scale = mech._scaled_rows        # world twist rows → dimensionless rows
 

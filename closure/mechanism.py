@@ -374,8 +374,15 @@ class Mechanism:
         return np.array([t.q_offset[ji] + k for ji, k in self.inputs], dtype=int)
 
     def unknown_columns(self) -> np.ndarray:
-        """Velocity-coordinate indices solved for (all but the inputs)."""
-        return np.setdiff1d(np.arange(self.tree.nv), self.input_columns())
+        """Velocity-coordinate indices solved for (all but the inputs); read-only, kept
+        with the compiled tree (the solver asks for them at every call)."""
+        t = self.tree
+        cached = getattr(self, "_unknown_cache", None)
+        if cached is None or cached[0] is not t:
+            cols = np.setdiff1d(np.arange(t.nv), self.input_columns())
+            cols.flags.writeable = False
+            cached = self._unknown_cache = (t, cols)
+        return cached[1]
 
     def input_labels(self) -> list[str]:
         """Labels of the inputs (``joint`` or ``joint.coordinate``)."""

@@ -7,7 +7,10 @@ mechanism's length scale) before its singular values are taken, so its
 condition number means the same at any size of mechanism.  Steps use the
 pseudo-inverse truncated to the expected rank (the unknowns minus the idle
 freedoms, e.g. the spin of an S–S rod), which is least squares for
-overconstrained loops (Bennett, Bricard) and keeps idle freedoms still.
+overconstrained loops (Bennett, Bricard) and keeps idle freedoms still.  It is
+applied by batched Cholesky on the normal equations where the Jacobian is well
+conditioned and by the truncated SVD elsewhere (:class:`_LstSq`); the condition
+number is computed once, for the poses returned.
 """
 from __future__ import annotations
 
@@ -98,10 +101,142 @@ def _pinv_parts(J, rank):
     smax = s[..., :1]
     keep = (k < rank) & (s > SINGULAR_RTOL * smax)
     srank = s[..., rank - 1] if rank > 0 else np.ones(s.shape[:-1])
-    with np.errstate(divide="ignore"):
+    with np.errstate(divide="ignore", over="ignore"):
         inv_s = np.where(keep & (s > 1e-300), 1.0 / np.where(s > 0, s, 1.0), 0.0)
         cond = np.where(srank > 0, smax[..., 0] / np.where(srank > 0, srank, 1.0), np.inf)
     return U, inv_s, Vt, cond
+
+
+def _condition(J, rank):
+    """Condition number ``s_max / s_rank`` of a batch of matrices (as :func:`_pinv_parts`,
+    from the singular values alone)."""
+    if J.shape[-1] == 0 or J.shape[-2] == 0:
+        return np.ones(J.shape[:-2])
+    s = np.linalg.svd(J, compute_uv=False)
+    rank = min(rank, s.shape[-1])
+    srank = s[..., rank - 1] if rank > 0 else np.ones(s.shape[:-1])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(srank > 0, s[..., 0] / np.where(srank > 0, srank, 1.0), np.inf)
+
+
+#: poses whose estimated condition number (an upper bound, within a factor min(m, n))
+#: is at most this solve by the normal equations (Cholesky, one step of iterative
+#: refinement); the others by the truncated SVD
+FAST_COND = 1e6
+
+
+class _LstSq:
+    """Minimum-norm least-squares solutions ``J X = R`` for a batch of matrices ``J``
+    (B, m, n) truncated to ``rank``: the pseudo-inverse of :func:`_pinv_parts`.
+
+    Where the expected rank is full (``min(m, n)``) the Gram matrix ``G`` (``J Jᵀ`` for
+    wide, ``Jᵀ J`` for tall matrices) is factored by a batched Cholesky and solves take
+    one step of iterative refinement; poses whose factorisation fails or whose condition
+    estimate ``sqrt(tr G · tr G⁻¹)`` (at least the condition, at most ``min(m, n)``
+    times it) exceeds :data:`FAST_COND`, and every pose of a mechanism whose expected
+    rank is below ``min(m, n)``, use the truncated SVD as before (minimum-norm steps,
+    never a 1/0).  No singular value is truncated at a Cholesky pose (its condition is
+    far below ``1 / SINGULAR_RTOL``), so both give the same pseudo-inverse.
+
+    Attributes
+    ----------
+    cond : (B,)
+        ``s_max / s_rank`` for SVD poses, NaN for Cholesky poses (see :func:`_condition`).
+    """
+
+    def __init__(self, J, rank):
+        B, m, n = J.shape
+        k = min(m, n)
+        self.J, self.wide = J, m < n
+        self._inv_smin = np.zeros(B)
+        self.fast = self._gram(J) if B and k and min(rank, k) == k else np.zeros(B, bool)
+        self.slow = np.nonzero(~self.fast)[0]
+        self.cond = np.full(B, np.nan)
+        if self.slow.size:
+            U, inv_s, Vt, cond = _pinv_parts(J[self.slow], rank)
+            self.U, self.inv_s, self.Vt = U, inv_s, Vt
+            self._inv_smin[self.slow] = np.max(inv_s, axis=1, initial=0.0)
+            self.cond[self.slow] = cond
+
+    def _gram(self, J):
+        """Factor the Gram matrices; the poses that take the Cholesky path."""
+        B = J.shape[0]
+        Jt = np.swapaxes(J, 1, 2)
+        G = J @ Jt if self.wide else Jt @ J
+        ok = None
+        try:
+            L = np.linalg.cholesky(G)
+        except np.linalg.LinAlgError:          # some not positive definite: screen them
+            with np.errstate(all="ignore"):
+                lam = np.linalg.eigvalsh(G)
+            ok = lam[:, 0] > 1e-13 * lam[:, -1]
+            L = np.tile(np.eye(G.shape[1]), (B, 1, 1))
+            try:
+                L[ok] = np.linalg.cholesky(G[ok])
+            except np.linalg.LinAlgError:
+                return np.zeros(B, dtype=bool)
+        Linv = np.linalg.inv(L)                 # triangular with a positive diagonal
+        tr_inv = np.einsum("bij,bij->b", Linv, Linv)                     # tr G⁻¹
+        cest = np.sqrt(np.einsum("bij,bij->b", J, J) * tr_inv)           # ≥ s_max / s_min
+        fast = cest <= FAST_COND                                         # False for NaN
+        if ok is not None:
+            fast &= ok
+        if fast.all():
+            self.Ginv = np.swapaxes(Linv, 1, 2) @ Linv                    # G⁻¹ = L⁻ᵀ L⁻¹
+            self._inv_smin = np.sqrt(tr_inv)                             # ≥ 1 / s_min
+        elif fast.any():
+            Li = Linv[fast]
+            self.Ginv = np.swapaxes(Li, 1, 2) @ Li
+            self._inv_smin[fast] = np.sqrt(tr_inv[fast])
+        return fast
+
+    def inv_smin(self, above):
+        """1 / (smallest kept singular value): exact for SVD poses; for Cholesky poses
+        ``sqrt(tr G⁻¹)`` (at most ``sqrt(min(m, n))`` times it) where that is at most
+        ``above``, else the 8th-power trace estimate (an upper bound within a factor
+        ``min(m, n)^(1/16)``, nearly exact where that singular value stands apart; both to
+        the eps · cond² ≤ 1e-4 of the normal equations)."""
+        out = self._inv_smin.copy()
+        big = self.fast & (out > above)
+        if big.any():
+            sel = big[self.fast]
+            Gi = self.Ginv[sel]
+            lam = out[big] ** 2                                          # tr G⁻¹
+            M = Gi / lam[:, None, None]
+            with np.errstate(all="ignore"):
+                for p in (2, 4, 8):                  # λ_max(G⁻¹) ≤ tr(G⁻ᵖ)^(1/p)
+                    M = M @ M
+                    t = np.trace(M, axis1=1, axis2=2)
+                    lam *= t ** (1.0 / p)
+                    M /= t[:, None, None]
+            out[big] = np.sqrt(lam)
+        return out
+
+    def solve(self, R):
+        """``X`` (B, n, j) for right-hand sides ``R`` (B, m, j).  On the Cholesky poses one
+        step of iterative refinement takes the relative error from about eps · cond² to
+        (eps · cond²)² + eps · cond (≤ 1e-8 at ``FAST_COND``; the SVD's is eps · cond)."""
+        B, m, n = self.J.shape
+        X = np.zeros((B, n, R.shape[2]))
+        if self.fast.any():
+            allf = self.fast.all()
+            J = self.J if allf else self.J[self.fast]
+            Rf = R if allf else R[self.fast]
+            Jt = np.swapaxes(J, 1, 2)
+            Gi = self.Ginv
+            if self.wide:
+                Xf = Jt @ (Gi @ Rf)
+                Xf += Jt @ (Gi @ (Rf - J @ Xf))
+            else:
+                Xf = Gi @ (Jt @ Rf)
+                Xf += Gi @ (Jt @ (Rf - J @ Xf))
+            if allf:
+                return Xf
+            X[self.fast] = Xf
+        if self.slow.size:
+            X[self.slow] = np.einsum("bkn,bk,bmk,bmj->bnj", self.Vt, self.inv_s, self.U,
+                                     R[self.slow])
+        return X
 
 
 def _apply(mech, state, dv_scaled):
@@ -145,7 +280,7 @@ def _ks_put(dst, idx, src, sub):
         a[idx] = b[sub]
 
 
-def newton(mech, state, opts: SolverOptions, columns=None, rank=None):
+def newton(mech, state, opts: SolverOptions, columns=None, rank=None, exact_cond=True):
     """Correct a batch of states (inputs already set) so that every loop closes.
 
     Each iteration evaluates the kinematic state once per line-search trial;
@@ -157,7 +292,11 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None):
     returned.
 
     ``columns`` and ``rank`` (default: the unknowns and their expected rank) choose
-    the coordinates that move.
+    the coordinates that move.  Steps come from :class:`_LstSq` (normal equations where
+    the Jacobian is well conditioned, the truncated SVD elsewhere); the condition
+    number is computed once, for the returned poses.  With ``exact_cond=False`` it is
+    left NaN for poses whose condition estimate is at most :data:`FAST_COND` (their
+    estimate is below any condition a caller acts on) and exact elsewhere.
 
     Returns ``(state, residual, iterations, condition, converged, ks)`` where
     ``ks`` is the kinematic state of the returned poses.
@@ -181,13 +320,13 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None):
         act = np.nonzero(~done)[0]
         if act.size == 0:
             break
-        ks = _ks_take(ks_all, act)
+        ks = ks_all if act.size == B else _ks_take(ks_all, act)     # read only
         r = mech._scaled_residual(ks)
         J = mech._scaled_jacobian(ks)[:, :, unknown]
-        U, inv_s, Vt, cond[act] = _pinv_parts(J, rank)
+        ls = _LstSq(J, rank)
+        cond[act] = ls.cond
         its[act] += 1
-        coef = np.einsum("bmk,bm->bk", U, r) * inv_s
-        step_u = -np.einsum("bkn,bk->bn", Vt, coef)
+        step_u = -ls.solve(r[:, :, None])[:, :, 0]
         big = np.max(np.abs(step_u), axis=1)
         # converged: the residual at rounding level (the coordinates are then as accurate
         # as the condition number allows), or steps of at most xtol that no longer
@@ -196,7 +335,7 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None):
         # near a singular configuration a residual at rounding level still leaves a
         # coordinate error of residual / σ_min: converged only once the step itself is
         # what rounding in the residual explains (noise / σ_min), or below xtol
-        tol_step = np.maximum(xtol, noise * np.max(inv_s, axis=1))
+        tol_step = np.maximum(xtol, noise * ls.inv_smin(xtol / noise))
         conv = (big <= tol_step) & ((res[act] <= floor) | stalled)
         prev[act] = res[act]
         done[act[conv]] = True
@@ -226,11 +365,24 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None):
             alpha[idx[~good]] *= 0.5
             if not pending.any():
                 break
-    left = np.nonzero(~done)[0]
-    if left.size:                                 # not converged: condition at the last state
-        J = mech._scaled_jacobian(_ks_take(ks_all, left))[:, :, unknown]
-        cond[left] = _pinv_parts(J, rank)[3]
+    # the condition at the returned state: not converged, or a step by Cholesky
+    left = np.nonzero(~done | (np.isnan(cond) & exact_cond))[0]
+    if left.size:
+        ks = ks_all if left.size == B else _ks_take(ks_all, left)
+        J = mech._scaled_jacobian(ks)[:, :, unknown]
+        cond[left] = _condition(J, rank) if exact_cond else _LstSq(J, rank).cond
     return (q, rot), res, its, cond, done, ks_all
+
+
+def _exact_condition(mech, ks, cond):
+    """Fill in, in place, the conditions left NaN by ``newton(..., exact_cond=False)``
+    from the kinematic state ``ks`` of the same poses."""
+    idx = np.nonzero(np.isnan(cond))[0]
+    if idx.size:
+        sub = ks if idx.size == cond.size else _ks_take(ks, idx)
+        J = mech._scaled_jacobian(sub)[:, :, mech.unknown_columns()]
+        cond[idx] = _condition(J, _expected_rank(mech))
+    return cond
 
 
 def predict(mech, state, first, x_from, x_new):
@@ -327,7 +479,8 @@ def project(mech, state, opts: SolverOptions | None = None):
     (minimum-norm Gauss–Newton steps).  Returns ``(state, residual)``."""
     opts = opts or SolverOptions()
     nv = mech.tree.nv
-    st, res, _, _, _, _ = newton(mech, state, opts, columns=np.arange(nv), rank=nv)
+    st, res, _, _, _, _ = newton(mech, state, opts, columns=np.arange(nv), rank=nv,
+                                 exact_cond=False)
     return st, res
 
 
@@ -422,7 +575,7 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
         xt = np.where(final[:, None], x_to[a], x_cur[a] + dx * shrink[:, None])
         (pq, prot), dv = predict(mech, (q[a], rot[a]), first[a], x_cur[a], xt)
         big = np.max(np.abs(dv), axis=1)
-        st, r, it, c, conv, ks = newton(mech, (pq, prot), step_opts)
+        st, r, it, c, conv, ks = newton(mech, (pq, prot), step_opts, exact_cond=False)
         jump = np.max(np.abs(_coord_distance(mech, st, (pq, prot))), axis=1)
         ok = conv & (r <= opts.rtol) & (jump <= 0.5 * big)
         g, sub = a[ok], np.nonzero(ok)[0]
@@ -442,6 +595,7 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
                 d, dsub = bad[dead], bsub[dead]
                 stop[d] = np.where(conv[dsub] & (r[dsub] > opts.rtol), 3, 4)
                 active[d] = False
+    _exact_condition(mech, ks_all, cond)
     pose = Pose(mech, x_cur, q, rot, res, its, cond, np.zeros(B, int), _ks=ks_all)
     return pose, stop, first
 
@@ -484,7 +638,7 @@ def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions) -> Pose:
     n = q.shape[0]
     q = q.copy()
     q[:, mech.input_q_columns()] = x0
-    st, res, its, cond, conv, ks = newton(mech, (q, rot.copy()), opts)
+    st, res, its, cond, conv, ks = newton(mech, (q, rot.copy()), opts, exact_cond=False)
     pose = Pose(mech, x0, st[0], st[1], res, its, cond, _status(mech, res, cond, conv, opts),
                 _ks=ks)
     return _take_pose(pose, np.zeros(B, dtype=int)) if n == 1 and B > 1 else pose
@@ -524,6 +678,50 @@ def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | N
     continuation = _flag(continuation, "continuation")
     x, scalar = _inputs_array(mech, inputs)
     B = x.shape[0]
+    if B > CHUNK:
+        pose = _solve_chunked(mech, x, guess, opts, continuation)
+    else:
+        pose = _solve_batch(mech, x, scalar, guess, opts, continuation)
+    bad = pose.status >= 2
+    if raise_on_failure and bad.any():
+        i = np.nonzero(bad)[0]
+        where = ""
+        if pose.reached is not None and pose.status[i[0]] == 4:
+            where = f", reached {pose.reached[i[0]].tolist()}"
+        raise ClosureError(
+            f"loop closure failed for {i.size} of {B} inputs (first: inputs {x[i[0]].tolist()}, "
+            f"{pose.status_text[i[0]]}{where}, residual {pose.residual[i[0]]:.2e}, condition "
+            f"{pose.condition[i[0]]:.2e})",
+            inputs=x[i], residual=pose.residual[i], condition=pose.condition[i])
+    return pose
+
+
+#: batches above this many inputs are solved in chunks of it (each member's path is
+#: independent of the others, so the poses are the same; the chunks' temporaries stay
+#: in cache and peak memory no longer grows with the batch beyond the returned poses)
+CHUNK = 2048
+
+
+def _solve_chunked(mech, x, guess, opts, continuation) -> Pose:
+    """:func:`_solve_batch` over chunks of ``CHUNK`` inputs, concatenated."""
+    B = x.shape[0]
+    if guess is not None and isinstance(guess, Pose) and len(guess) not in (1, B):
+        raise MechanismError(f"guess: has {len(guess)} poses, expected 1 or {B}")
+    parts = []
+    for a in range(0, B, CHUNK):
+        sl = np.arange(a, min(a + CHUNK, B))
+        g = guess if guess is None or not isinstance(guess, Pose) or len(guess) == 1 \
+            else _take_pose(guess, sl)
+        parts.append(_solve_batch(mech, x[sl], False, g, opts, continuation))
+    pose = _cat_poses(parts)
+    if parts[0].reached is not None:
+        pose.reached = np.concatenate([p.reached for p in parts])
+    return pose
+
+
+def _solve_batch(mech, x, scalar, guess, opts, continuation) -> Pose:
+    """The poses of :func:`solve` at inputs ``x`` (B, ni), without raising."""
+    B = x.shape[0]
     start = _start_pose(mech, guess, B, opts)
     if continuation:
         pose, stop, _ = _continue(mech, start, x, opts)
@@ -540,17 +738,6 @@ def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | N
         pose = Pose(mech, x, state[0], state[1], res, its, cond,
                     _status(mech, res, cond, conv, opts),
                     scalar, _ks=ks)
-    bad = pose.status >= 2
-    if raise_on_failure and bad.any():
-        i = np.nonzero(bad)[0]
-        where = ""
-        if pose.reached is not None and pose.status[i[0]] == 4:
-            where = f", reached {pose.reached[i[0]].tolist()}"
-        raise ClosureError(
-            f"loop closure failed for {i.size} of {B} inputs (first: inputs {x[i[0]].tolist()}, "
-            f"{pose.status_text[i[0]]}{where}, residual {pose.residual[i[0]]:.2e}, condition "
-            f"{pose.condition[i[0]]:.2e})",
-            inputs=x[i], residual=pose.residual[i], condition=pose.condition[i])
     return pose
 
 

@@ -23,8 +23,36 @@ def _timeit(fn, repeat=3):
     return best, out
 
 
+def _rssr_closed_newton(phi, psi, iters=50):
+    """Vectorised Newton on the RSSR's one-unknown loop equation
+    K(φ) cos ψ + L(φ) sin ψ = M(φ) (|B − A| = b, B on the rocker's circle), from ``psi``;
+    returns ψ and the iterations taken."""
+    from linkwright.references import RSSR, rssr_frame
+
+    a, b, c, P0 = RSSR["a"], RSSR["b"], RSSR["c"], RSSR["P0"]
+    _, e1, e2 = rssr_frame()
+    Dx, Dy, Dz = P0[0] - a * np.cos(phi), P0[1] - a * np.sin(phi), P0[2] + 0 * phi
+    K = 2 * c * (Dx * e1[0] + Dy * e1[1] + Dz * e1[2])
+    L = 2 * c * (Dx * e2[0] + Dy * e2[1] + Dz * e2[2])
+    M = b * b - c * c - (Dx * Dx + Dy * Dy + Dz * Dz)
+    psi = np.array(psi, dtype=float)
+    for k in range(1, iters + 1):
+        cs, sn = np.cos(psi), np.sin(psi)
+        step = (K * cs + L * sn - M) / (L * cs - K * sn)
+        psi -= step
+        if np.max(np.abs(step)) <= 1e-14 * (1 + np.max(np.abs(psi))):
+            break
+    return psi, k
+
+
 def bench_closure(quick: bool = False) -> list[str]:
-    """RSSR over many crank angles: batched Gauss–Newton vs a scipy least_squares loop."""
+    """RSSR over many crank angles: the batched engine against the baselines a competent
+    user would write (scipy ``least_squares`` per position, trf with finite differences
+    and lm with the engine's analytic Jacobian; a vectorised Newton on the RSSR's own
+    closed-form one-unknown equation), all from the same guesses; plus one-pose and
+    one-sweep-step latencies and the engine's peak memory per position."""
+    import tracemalloc
+
     from scipy.optimize import least_squares
 
     from closure import Pose
@@ -32,7 +60,9 @@ def bench_closure(quick: bool = False) -> list[str]:
     from linkwright.references import rssr, rssr_output
 
     n = 2000 if quick else 10_000
-    n_scipy = 50 if quick else 200
+    n_trf = 30 if quick else 200
+    n_lm = 30 if quick else 200
+    n_one = 10 if quick else 40
     phi0, branch = 0.2, 1
     m, psi0 = rssr(phi0, branch)
     x = np.linspace(-np.pi, np.pi, n, endpoint=False) - phi0
@@ -47,52 +77,122 @@ def bench_closure(quick: bool = False) -> list[str]:
     guess = Pose(m, cx[near, None], cq[near], crot[near], *(np.zeros(n),) * 3,
                  np.zeros(n, int))
     ref = rssr_output(phi0 + x, branch)
+    col = m.tree.q_offset[m.joint("out").index]
 
-    def err(out):
-        return np.abs((psi0 + out - ref + np.pi) % (2 * np.pi) - np.pi).max()
+    def err(psi, idx=slice(None)):
+        return np.abs((psi - ref[idx] + np.pi) % (2 * np.pi) - np.pi).max()
 
+    rows = []                       # (method, positions timed, s per position, error)
     t_batch, pose = _timeit(lambda: m.solve(x, guess=guess))
-    e_batch = err(pose["out"])
+    rows.append(("batched engine (`Mechanism.solve`, continuation from the guesses)", n,
+                 t_batch / n, err(psi0 + pose["out"])))
+    tracemalloc.start()
+    m.solve(x, guess=guess)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
 
-    # the per-position alternative: scipy least_squares on the same loop equations
+    # per position: scipy least_squares on the same (dimensionless) loop residual
     unknown = m.unknown_columns()
 
-    def one(i):
+    def problem(i):
         g = (guess.q[i:i + 1].copy(), guess.rot[i:i + 1].copy())
         g[0][:, m.input_q_columns()] = x[i]
 
-        def f(u):
+        def state(u):
             dv = np.zeros((1, m.tree.nv))
             dv[0, unknown] = u
-            return m._scaled_residual(m.kinematic_state(_apply(m, g, dv), twists=False))[0]
+            return _apply(m, g, dv)
 
-        r = least_squares(f, np.zeros(unknown.size), xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                          method="trf")
-        dv = np.zeros((1, m.tree.nv))
-        dv[0, unknown] = r.x
-        return _apply(m, g, dv)[0][0]
+        def f(u):
+            return m._scaled_residual(m.kinematic_state(state(u), twists=False))[0]
 
-    idx = np.linspace(0, n - 1, n_scipy).astype(int)
-    t0 = time.perf_counter()
-    qs = np.array([one(i) for i in idx])
-    t_scipy = (time.perf_counter() - t0) / n_scipy * n
-    col = m.tree.q_offset[m.joint("out").index]
-    e_scipy = np.abs((psi0 + qs[:, col] - ref[idx] + np.pi) % (2 * np.pi) - np.pi).max()
-    return [
-        "## closure: RSSR positions, both methods from the same guesses",
+        def jac(u):                      # the engine's twists: J of the scaled loop residual
+            return m._scaled_jacobian(m.kinematic_state(state(u)))[0][:, unknown]
+
+        return state, f, jac
+
+    def pinned(f, jac):
+        """lm needs as many residuals as unknowns: pin the rod's idle spin (the null
+        vector of the Jacobian at the guess) with one more residual."""
+        J0 = jac(np.zeros(unknown.size))
+        v = np.linalg.svd(J0)[2][-1]
+        return (lambda u: np.r_[f(u), v @ u]), (lambda u: np.vstack([jac(u), v]))
+
+    def per_position(idx, method):
+        out, nfev = [], 0
+        for i in idx:
+            state, f, jac = problem(i)
+            kw = {}
+            if method == "lm":
+                f, jac = pinned(f, jac)
+                kw = dict(jac=jac)
+            r = least_squares(f, np.zeros(unknown.size), xtol=1e-12, ftol=1e-12, gtol=1e-12,
+                              method=method, **kw)
+            nfev += r.nfev
+            out.append(state(r.x)[0][0, col])
+        return np.array(out), nfev / len(idx)
+
+    for method, k, label in (("trf", n_trf, "scipy `least_squares` trf, finite differences"),
+                             ("lm", n_lm, "scipy `least_squares` lm, analytic Jacobian "
+                                          "(engine twists), rod spin pinned")):
+        idx = np.linspace(0, n - 1, k).astype(int)
+        t0 = time.perf_counter()
+        q_out, nfev = per_position(idx, method)
+        t = (time.perf_counter() - t0) / k
+        rows.append((f"{label}, per position (timed on {k}; {nfev:.1f} residual calls each)",
+                     k, t, err(psi0 + q_out, idx)))
+
+    # vectorised Newton on the closed-form one-unknown equation, from the same guesses
+    psi_g = psi0 + guess.q[:, col]
+    t_cf, (psi_cf, its_cf) = _timeit(lambda: _rssr_closed_newton(phi0 + x, psi_g), repeat=5)
+    rows.append((f"vectorised Newton on the closed-form RSSR equation ({its_cf} iterations)",
+                 n, t_cf / n, err(psi_cf)))
+
+    # latencies: one pose (solve from its nearest coarse pose), one sweep step, one
+    # closed-form Newton on one pose
+    from closure.solver import _take_pose
+
+    sel = np.linspace(0, n - 1, n_one).astype(int)
+    g1 = [_take_pose(guess, [i]) for i in sel]
+    m.solve(x[sel[0]], guess=g1[0])
+    t_one, _ = _timeit(lambda: [m.solve(x[i], guess=g) for i, g in zip(sel, g1)])
+    t_one /= sel.size
+    xs = np.linspace(0.0, 0.4 if quick else 2.0, 21 if quick else 101)     # 0.02 rad apart
+    t_sweep, _ = _timeit(lambda: m.sweep(xs))
+    t_sweep /= xs.size - 1
+    t_cf1, _ = _timeit(lambda: [_rssr_closed_newton(phi0 + x[i], psi_g[i]) for i in sel])
+    t_cf1 /= sel.size
+
+    us = 1e6
+    out = [
+        "## closure: RSSR positions, every method from the same guesses",
         "",
-        "| method | positions | time (s) | positions / s | max error vs closed form (rad) |",
-        "|---|---|---|---|---|",
-        f"| batched Gauss–Newton (`Mechanism.solve`) | {n} | {t_batch:.4f} | {n / t_batch:,.0f} "
-        f"| {e_batch:.2e} |",
-        f"| scipy `least_squares` loop (timed on {n_scipy}, scaled) | {n} | {t_scipy:.2f} | "
-        f"{n / t_scipy:,.0f} | {e_scipy:.2e} |",
+        "| method | positions | µs / position | positions / s | max error vs closed form "
+        "(rad) | time ratio to the engine batch |",
+        "|---|---|---|---|---|---|",
+    ]
+    for label, k, t, e in rows:
+        out.append(f"| {label} | {k} | {t * us:.2f} | {1 / t:,.0f} | {e:.2e} | "
+                   f"{t / rows[0][2]:.3g}× |")
+    out += [
         "",
-        f"speed ratio batched / scipy loop: **{t_scipy / t_batch:.0f}×**; "
-        f"largest residual {pose.residual.max():.1e}, largest condition {pose.condition.max():.1f}, "
-        f"iterations ≤ {pose.iterations.max()}",
+        "| latency | µs |",
+        "|---|---|",
+        f"| engine, one pose (`solve` of one input from its nearest coarse pose) | "
+        f"{t_one * us:.0f} |",
+        f"| engine, one sweep step (`sweep` over {xs.size} inputs {xs[1] - xs[0]:.2g} rad "
+        f"apart, per step) | {t_sweep * us:.0f} |",
+        f"| closed-form Newton, one pose | {t_cf1 * us:.1f} |",
+        "",
+        f"engine batch: {t_batch / n * us:.2f} µs per position, peak memory "
+        f"{peak / n:,.0f} B per position (tracemalloc); largest residual "
+        f"{pose.residual.max():.1e}, largest condition {pose.condition.max():.1f}, iterations ≤ "
+        f"{pose.iterations.max()}.  Speed: **{rows[1][2] / rows[0][2]:.0f}×** the trf loop, "
+        f"**{rows[2][2] / rows[0][2]:.0f}×** the lm loop; the closed-form vectorised Newton is "
+        f"**{rows[0][2] / rows[3][2]:.0f}×** faster than the engine.",
         "",
     ]
+    return out
 
 
 def bench_stiffness(quick: bool = False) -> list[str]:

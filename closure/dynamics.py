@@ -26,9 +26,9 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from .errors import ClosureError, MechanismError
 from .checks import real_number
-from .frames import as_array, as_index, as_number, cross, skew
+from .errors import ClosureError, MechanismError
+from .frames import as_array, as_index, as_number, cross, input_rates, skew
 from .kinematics import _bias, analogs, link_twists
 from .pose import REACHED, Pose
 from .solver import TANGENT_COND, SolverOptions, _take_pose
@@ -220,7 +220,7 @@ class Dynamics:
         mech = self.m
         B = len(pose)
         if _first_out is None:        # a public call (simulate passes the integrator's state)
-            xd = _rates(xd, "terms: xd", (B, len(mech.inputs)))
+            xd = input_rates(xd, "terms: xd", (B, len(mech.inputs)))
         xd = np.broadcast_to(np.asarray(xd, float), (B, len(mech.inputs)))
         ks = pose.kinematics()
         first, second = analogs(mech, pose, ks=ks)
@@ -270,7 +270,7 @@ class Dynamics:
 
     def energy(self, pose: Pose, xd) -> dict:
         """Kinetic, gravitational and spring energy (J), each (B,)."""
-        xd = _rates(xd, "energy: xd", (len(pose), len(self.m.inputs)))
+        xd = input_rates(xd, "energy: xd", (len(pose), len(self.m.inputs)))
         M, _, _, _ = self.terms(pose, xd)
         xd = np.broadcast_to(np.asarray(xd, float), (len(pose), len(self.m.inputs)))
         T = 0.5 * np.einsum("bi,bij,bj->b", xd, M, xd)
@@ -475,16 +475,6 @@ class Dynamics:
         out.attrs["status"] = "completed" if sol.status == 0 else "dead point"
         out.attrs["message"] = sol.message
         return out
-
-
-def _rates(v, name, shape):
-    """Input rates ``v`` checked (real, finite) and broadcast to ``shape``."""
-    a = as_array(v, name)
-    try:
-        return np.broadcast_to(a, shape)
-    except ValueError:
-        raise MechanismError(f"{name}: expected shape {shape} or ({shape[1]},), got "
-                             f"{a.shape}") from None
 
 
 def _finite_vector(v, n, name):

@@ -68,6 +68,17 @@ def as_index(x, name: str) -> int:
     return int(x)
 
 
+def input_rates(v, name: str, shape: tuple) -> np.ndarray:
+    """Input rates or accelerations ``v`` checked (real, finite) and broadcast to ``shape``
+    ``(B, n_inputs)``; a single ``(n_inputs,)`` row serves every pose."""
+    a = as_array(v, name)
+    try:
+        return np.broadcast_to(a, shape)
+    except ValueError:
+        raise MechanismError(f"{name}: expected shape (B, n_inputs) = {shape} or "
+                             f"({shape[1]},), got {a.shape}") from None
+
+
 def _broadcast(name, *shapes):
     try:
         return np.broadcast_shapes(*shapes)

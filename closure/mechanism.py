@@ -15,9 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import MechanismError
 from .checks import shown
-from .frames import _adjoint, _inverse, _log_se3, as_array, check_transform
+from .errors import MechanismError
+from .frames import _adjoint, _inverse, _log_se3, as_array, check_transform, input_rates
 from .joints import JOINT_KINDS, Joint
 
 __all__ = ["Mechanism"]
@@ -555,24 +555,15 @@ class Mechanism:
     def velocities(self, pose, rates) -> np.ndarray:
         """Coordinate rates ``(B, nv)`` for input rates ``(B, ni)`` or ``(ni,)``."""
         first, _ = self.analogs(pose, second=False)
-        xd = self._rates(rates, "rates", first.shape[:1] + first.shape[2:])
+        xd = input_rates(rates, "rates", first.shape[:1] + first.shape[2:])
         return np.einsum("bci,bi->bc", first, xd)
 
     def accelerations(self, pose, rates, accels) -> np.ndarray:
         """Coordinate accelerations ``(B, nv)`` for input rates and accelerations ``(B, ni)``."""
         first, sec = self.analogs(pose)
         shp = first.shape[:1] + first.shape[2:]
-        xd, xdd = self._rates(rates, "rates", shp), self._rates(accels, "accels", shp)
+        xd, xdd = input_rates(rates, "rates", shp), input_rates(accels, "accels", shp)
         return np.einsum("bci,bi->bc", first, xdd) + np.einsum("bcij,bi,bj->bc", sec, xd, xd)
-
-    @staticmethod
-    def _rates(v, name, shape):
-        a = as_array(v, name)
-        try:
-            return np.broadcast_to(a, shape)
-        except ValueError:
-            raise MechanismError(f"{name}: expected shape (B, n_inputs) = {shape} or "
-                                 f"({shape[1]},), got {a.shape}") from None
 
     def __repr__(self) -> str:
         kinds = "".join(j.kind for j in self.joints)

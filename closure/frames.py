@@ -172,8 +172,11 @@ def _log_so3(R):
     small = th < 1e-5
     scale = np.where(small, 1 + th ** 2 / 6 + 7 * th ** 4 / 360, th / np.where(small, 1, np.sin(th)))
     out = v * scale[..., None]
-    near_pi = th > np.pi - 1e-3
+    near_pi = th > np.pi / 2
     if np.any(near_pi):
+        # past a quarter turn the axis is better conditioned from the symmetric part (its
+        # error ~ε / (1 − cos θ) ≤ ε, against ε / sin θ from the skew part, which grows
+        # without bound at a half turn):
         # (R + Rᵀ)/2 = cos θ I + (1 - cos θ) a aᵀ: take the largest column of a aᵀ
         c = np.cos(th[near_pi])[..., None, None]
         M = ((R[near_pi] + np.swapaxes(R[near_pi], -1, -2)) / 2 - c * _EYE3) / (1 - c)

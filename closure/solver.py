@@ -723,7 +723,7 @@ def _solve_batch(mech, x, scalar, guess, opts, continuation) -> Pose:
     """The poses of :func:`solve` at inputs ``x`` (B, ni), without raising."""
     B = x.shape[0]
     start = _start_pose(mech, guess, B, opts)
-    if continuation:
+    if continuation and mech.tree.chords:         # an open chain has no branch to follow
         pose, stop, _ = _continue(mech, start, x, opts)
         res, cond = pose.residual, pose.condition
         status = _status(mech, res, cond, np.ones(B, bool), opts)

@@ -11,8 +11,9 @@ from closure.frames import exp_so3, skew
 
 from .errors import SingularPoseError, SingularPoseWarning, StiffnessError
 from .matrices import _congruence
-from .sixvector import shift_wrench, wrench_transform
-from .validate import as_array, broadcast, first_bad, number, points, rotation, transform, vec3
+from .sixvector import rotate_six, shift_wrench, wrench_transform
+from .validate import (as_array, broadcast, first_bad, number, points, reference_frame,
+                       transform)
 
 __all__ = ["Hexapod", "StiffnessResult"]
 
@@ -255,23 +256,11 @@ class Hexapod:
                       f"warn_cond = {self.warn_cond:.0e}{figure}; leg forces and deflections "
                       "are amplified by up to ~cond(P) there", SingularPoseWarning, stacklevel=3)
 
-    def _frame(self, frame, pose):
-        if frame is None or isinstance(frame, str) and frame == "base":
-            return np.eye(3), np.zeros(3)
-        if isinstance(frame, str):
-            if frame != "platform":
-                raise StiffnessError(f"frame: expected 'base' (or None), 'platform' or (R, p), "
-                                     f"got {frame!r}")
-            T = np.asarray(pose, dtype=float)
-            return np.swapaxes(T[..., :3, :3], -1, -2), T[..., :3, 3]
-        try:
-            R, p = frame
-        except (TypeError, ValueError):
-            raise StiffnessError("frame: expected None, 'platform' or (R, p) with R a 3x3 "
-                                 f"rotation and p a 3-vector (m), got {type(frame).__name__}") \
-                from None
-        R, p = rotation(R, "frame R"), vec3(p, "frame p")
-        broadcast(pose=np.shape(pose)[:-2], frame_R=R.shape[:-2], frame_p=p.shape[:-1])
+    @staticmethod
+    def _frame(frame, T):
+        R, p = reference_frame(frame, T)
+        if not isinstance(frame, str) and frame is not None:
+            broadcast(pose=T.shape[:-2], frame_R=R.shape[:-2], frame_p=p.shape[:-1])
         return R, p
 
     # ---------------------------------------------------------------- stiffness
@@ -474,7 +463,7 @@ class Hexapod:
         G = np.einsum("i,ijk->jk", tau, dN)
         # held wrench about the carried reference point: m' = m − δ × f adds [f] δ
         G[3:, :3] += skew(W[:3])
-        H = np.kron(np.eye(2), R)                             # base axes → the frame's axes
+        H = rotate_six(R)                                     # base axes → the frame's axes
         return StiffnessResult(H @ (K + G) @ H.T, np.asarray(p, dtype=float), np.asarray(R),
                                True, float(c))
 

@@ -26,10 +26,10 @@ import numpy as np
 import pandas as pd
 
 from .errors import SingularPoseError, StiffnessError
-from .sixvector import twist_transform
+from .sixvector import rotate_six, twist_transform
 from closure.frames import adjoint, skew
 
-from .validate import as_array, rotation, transform, vec3
+from .validate import as_array, reference_frame, transform, vec3
 
 __all__ = ["MechanismStiffness", "of_mechanism", "mechanism_map"]
 
@@ -198,22 +198,11 @@ def _roles(mech, springs, locked, link_springs=None):
 
 
 def _frame(frame, link_T):
-    """(R (B, 3, 3), p (B, 3)) of the result's frame."""
+    """(R (B, 3, 3), p (B, 3)) of the result's frame, one frame for every pose."""
     B = link_T.shape[0]
-    if frame is None or isinstance(frame, str) and frame == "base":
-        return np.broadcast_to(np.eye(3), (B, 3, 3)), np.zeros((B, 3))
-    if isinstance(frame, str):
-        if frame != "platform":
-            raise StiffnessError(f"frame: expected 'base' (or None), 'platform' or (R, p), got "
-                                 f"{frame!r}")
-        return np.swapaxes(link_T[:, :3, :3], 1, 2), link_T[:, :3, 3]
-    try:
-        R, p = frame
-    except (TypeError, ValueError):
-        raise StiffnessError("frame: expected None, 'platform' or (R, p) with R a 3x3 rotation "
-                             f"and p a 3-vector (m), got {type(frame).__name__}") from None
-    R, p = rotation(R, "frame R"), vec3(p, "frame p")
-    if R.shape != (3, 3) or p.shape != (3,):
+    R, p = reference_frame(frame, link_T)
+    if R.shape[:-2] != p.shape[:-1] or R.ndim not in (2, 3) or \
+            R.ndim == 3 and not isinstance(frame, str):
         raise StiffnessError(f"frame: expected one frame (R (3, 3), p (3,)), got shapes "
                              f"{R.shape} and {p.shape}")
     return np.broadcast_to(R, (B, 3, 3)), np.broadcast_to(p, (B, 3))
@@ -334,16 +323,15 @@ def _check(mechanism, pose, platform):
                              f"{', '.join(mechanism.links[1:])}), got {platform!r}")
 
 
-def _columns(mechanism, ks, platform, roles):
+def _columns(mechanism, ks, platform, roles, free):
     """The motion columns of a batch: the free and elastic joint coordinates, then six per
     link spring.  Returns their world twists ``(B, n, 6)``, loop coefficients ``(nloops,
     n)``, platform-path coefficients ``(n,)``, length scale of each column ``(n,)`` and
     the stiffness over them ``(n, n)`` (units of the columns)."""
-    Kq, elastic, lock, passive, links = roles
+    Kq, links = roles[0], roles[4]
     t = mechanism.tree
     col = np.ones(t.nv)
     col[t.length_cols] = t.scale                          # dq = col · dq_s, dq_s dimensionless
-    free = np.sort(np.r_[elastic, passive].astype(int))
     path = t.path_sign[t.link_index[platform]]
     twists = [ks["S"][:, free]]
     loop, along, scale = [t.loop_coef[:, free]], [path[free]], [col[free]]
@@ -372,13 +360,13 @@ def _stiffness(mechanism, ks, platform, roles, R, p, wrench=None):
     ``wrench`` (6,) about the world origin, the loaded stiffness."""
     Kq, elastic, lock, passive, links = roles
     t = mechanism.tree
-    W, loop, along, colf, Kc = _columns(mechanism, ks, platform, roles)
+    free = np.sort(np.r_[elastic, passive].astype(int))   # the columns that move
+    W, loop, along, colf, Kc = _columns(mechanism, ks, platform, roles, free)
     B, nf = W.shape[:2]
     L = t.scale
     Kq_s = Kc * colf[:, None] * colf                      # energy per dimensionless motion
     A0 = (along[:, None] * W).transpose(0, 2, 1) * colf   # (B, 6, nf): Δ about the world origin
     A = twist_transform(R, p) @ A0                        # Δ about p, in the frame's axes
-    free = np.sort(np.r_[elastic, passive].astype(int))
     if t.chords:
         Jw = np.einsum("kc,bcs->bksc", loop, W).reshape(B, -1, nf)
         J = mechanism._scaled_rows(Jw) * colf             # dimensionless, about the centre
@@ -431,7 +419,7 @@ def _stiffness(mechanism, ks, platform, roles, R, p, wrench=None):
                 Zr = Z[h] @ np.take_along_axis(V[h], keep[:, None, :], 2)
                 lam_r = np.take_along_axis(lam[h], keep, 1)
                 j = idx[h]
-                H6 = _axes6(R[j])                         # world axes → the frame's
+                H6 = rotate_six(R[j])                     # world axes → the frame's
                 Kl, Cl = _loaded(mechanism, ks, j, free, Zr, lam_r, A0[j], colf, loop, along,
                                  Kq_s, (UJ[j], s[j], Vt[j], rank[j]), wrench, p[j],
                                  np.swapaxes(H6, 1, 2) @ U[h, :, :nc], unit)
@@ -443,13 +431,6 @@ def _stiffness(mechanism, ks, platform, roles, R, p, wrench=None):
     return MechanismStiffness(K, C, rigid, np.array(p, dtype=float), np.array(R, dtype=float),
                               cond, _labels(mechanism, elastic) + [x[4] for x in links],
                               _labels(mechanism, lock), _labels(mechanism, passive)), free_motion
-
-
-def _axes6(R):
-    """``diag(R, R)`` for a batch of rotations ``(b, 3, 3)`` → ``(b, 6, 6)``."""
-    H = np.zeros(R.shape[:-2] + (6, 6))
-    H[..., :3, :3] = H[..., 3:, 3:] = R
-    return H
 
 
 def _loaded(mechanism, ks, idx, free, Zr, lam, A0, colf, loop, along, Kq_s, svd, wrench, p,

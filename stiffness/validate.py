@@ -139,3 +139,24 @@ def broadcast(**shapes) -> tuple:
         desc = ", ".join(f"{k} {v}" for k, v in shapes.items())
         raise StiffnessError(f"{', '.join(shapes)}: batch shapes do not broadcast ({desc})") \
             from None
+
+
+def reference_frame(frame, T) -> tuple:
+    """``(R, p)`` of a result's frame (``r' = R (r − p)``, p in base coordinates, m):
+    ``"base"`` or None the base origin and axes; ``"platform"`` the frame of the transforms
+    ``T (..., 4, 4)``; or a pair ``(R, p)``, checked.  The caller checks batch shapes."""
+    if frame is None or isinstance(frame, str) and frame == "base":
+        return np.eye(3), np.zeros(3)
+    if isinstance(frame, str):
+        if frame != "platform":
+            raise StiffnessError(f"frame: expected 'base' (or None), 'platform' or (R, p), got "
+                                 f"{frame!r}")
+        return np.swapaxes(T[..., :3, :3], -1, -2), T[..., :3, 3]
+    try:
+        R, p = frame
+    except (TypeError, ValueError):
+        raise StiffnessError("frame: expected 'base' (or None), 'platform' or (R, p) with R a "
+                             f"3x3 rotation and p a 3-vector (m), got {type(frame).__name__}") \
+            from None
+    return rotation(R, "frame R"), vec3(p, "frame p")
+

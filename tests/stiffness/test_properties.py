@@ -150,8 +150,8 @@ def test_every_public_function_is_covered_by_the_bad_input_table():
     covered = {name.split(".")[0] for name in CASES} | {
         "design_leg_stiffness", "report", "plot_map", "StiffnessResult", "StiffnessError",
         "SingularPoseError", "SingularPoseWarning", "from_moment_first",
-        "of_mechanism", "MechanismStiffness", "mechanism_map",
-        "beam_stiffness", "beam_compliance"}   # beams: test_beams     # of_mechanism: its own table in test_mechanism
+        # their own bad-input tables: test_mechanism and test_beams
+        "of_mechanism", "MechanismStiffness", "mechanism_map", "beam_stiffness", "beam_compliance"}
     assert set(stiffness.__all__) <= covered
 
 

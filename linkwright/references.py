@@ -1,7 +1,7 @@
 """Reference mechanisms with closed-form solutions, shared by the tests and the benchmarks."""
 import numpy as np
 
-from closure import Mechanism, rot_x, rot_z, transform, translation
+from closure import Mechanism, frame_from_points, rot_x, rot_z, transform, translation
 
 
 def dh(theta, a, alpha):
@@ -171,13 +171,10 @@ def fourbar_rod_reference(geom, masses, t2_0, g=9.81, branch=1):
 
 # ---------------------------------------------------------------- 6-UPS platform
 def axis_frame(z, x, o):
-    """A 4x4 frame with Z along ``z``, X along the part of ``x`` normal to it, origin ``o``."""
-    z = np.asarray(z, float) / np.linalg.norm(z)
-    x = np.asarray(x, float) - z * (np.asarray(x, float) @ z)
-    x = x / np.linalg.norm(x)
-    T = np.eye(4)
-    T[:3, 0], T[:3, 1], T[:3, 2], T[:3, 3] = x, np.cross(z, x), z, o
-    return T
+    """A 4x4 frame with Z along ``z``, X along the part of ``x`` normal to it, origin ``o``
+    (seed 000's three-point rule, given directions instead of points)."""
+    o = np.asarray(o, float)
+    return frame_from_points(o, o + np.asarray(x, float), o + np.asarray(z, float))
 
 
 def ups_platform(base, plat, T0, Q=np.eye(3), s=np.zeros(3)):

@@ -100,19 +100,26 @@ def test_serial_6r_arm_is_J_inv_T_Ktheta_J_inv():
     assert rel(res.K[0], Ji.T @ np.diag(kt) @ Ji) < 1e-10
 
 
+def planar_rpr(base, plat):
+    """A planar 3-RPR (R at the base, P along the leg: the inputs, R at the platform; every
+    axis along z) drawn with its legs from ``base`` to ``plat`` (3, 3)."""
+    m = Mechanism([f"a{i}" for i in range(3)] + [f"b{i}" for i in range(3)] + ["platform"])
+    for i in range(3):
+        leg = plat[i] - base[i]
+        m.add_joint(f"R{i}", "R", "ground", f"a{i}", at=frame([0, 0, 1], leg, base[i]))
+        m.add_joint(f"P{i}", "P", f"a{i}", f"b{i}", at=frame(leg, [0, 0, 1], base[i]))
+        m.add_joint(f"T{i}", "R", f"b{i}", "platform", at=frame([0, 0, 1], leg, plat[i]))
+        m.add_input(f"P{i}")
+    return m
+
+
 def test_planar_3rpr_closed_form():
     """A planar 3-RPR with elastic legs: K on (x, y, θz) is Σ k pᵢ pᵢᵀ with pᵢ = (uᵢ, (rᵢ × uᵢ)_z);
     the other three directions are rigid."""
     base = np.array([[0, 0, 0], [2.0, 0, 0], [0.8, 1.9, 0]])
     plat = np.array([[0.7, 0.6, 0], [1.3, 0.5, 0], [1.0, 1.1, 0]])
     k = np.array([2e6, 3e6, 5e6])
-    m = Mechanism([f"l{i}" for i in range(3)] + [f"u{i}" for i in range(3)] + ["platform"])
-    for i in range(3):
-        u = plat[i] - base[i]
-        m.add_joint(f"A{i}", "R", "ground", f"l{i}", at=frame([0, 0, 1], u, base[i]))
-        m.add_joint(f"P{i}", "P", f"l{i}", f"u{i}", at=frame(u, [0, 0, 1], base[i]))
-        m.add_joint(f"C{i}", "R", f"u{i}", "platform", at=frame([0, 0, 1], u, plat[i]))
-        m.add_input(f"P{i}")
+    m = planar_rpr(base, plat)
     pose = m.solve(np.array([[0.0, 0, 0], [0.05, -0.03, 0.02]]))
     res = of_mechanism(m, pose, platform="platform", springs={f"P{i}": k[i] for i in range(3)})
     assert (res.rigid == 3).all()
@@ -121,7 +128,7 @@ def test_planar_3rpr_closed_form():
         r = plat @ Tp[:3, :3].T + Tp[:3, 3]
         u = r - base
         u /= np.linalg.norm(u, axis=1)[:, None]
-        P = np.c_[u[:, 0], u[:, 1], u[:, 0] * r[:, 1] * 0 + np.cross(r, u)[:, 2]].T
+        P = np.c_[u[:, 0], u[:, 1], np.cross(r, u)[:, 2]].T
         Kp = P @ np.diag(k) @ P.T
         sel = [0, 1, 5]
         assert rel(res.K[b][np.ix_(sel, sel)], Kp) < 1e-10
@@ -176,17 +183,10 @@ def _three_legged(kind):
     radial = np.c_[np.cos(ang), np.sin(ang), np.zeros(3)]
     tangent = np.c_[-np.sin(ang), np.cos(ang), np.zeros(3)]
     base, plat = 1.0 * radial, 0.5 * radial + [0, 0, 1.0]
-    m = Mechanism([f"a{i}" for i in range(3)] + [f"b{i}" for i in range(3)] + ["platform"])
     if kind == "RPR":
         turned = np.radians([130, 250, 370])
-        plat = 0.5 * np.c_[np.cos(turned), np.sin(turned), np.zeros(3)]
-        for i in range(3):
-            leg = plat[i] - base[i]
-            m.add_joint(f"R{i}", "R", "ground", f"a{i}", at=frame([0, 0, 1], leg, base[i]))
-            m.add_joint(f"P{i}", "P", f"a{i}", f"b{i}", at=frame(leg, [0, 0, 1], base[i]))
-            m.add_joint(f"T{i}", "R", f"b{i}", "platform", at=frame([0, 0, 1], leg, plat[i]))
-            m.add_input(f"P{i}")
-        return m
+        return planar_rpr(base, 0.5 * np.c_[np.cos(turned), np.sin(turned), np.zeros(3)])
+    m = Mechanism([f"a{i}" for i in range(3)] + [f"b{i}" for i in range(3)] + ["platform"])
     for i in range(3):
         if kind == "RPS":
             leg = plat[i] - base[i]

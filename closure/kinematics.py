@@ -34,17 +34,26 @@ def bracket(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return out
 
 
+def _per_rate(S, rates):
+    """The column twists ``S (B, nv, 6)`` shaped to broadcast against ``rates (B, ..., nv)``."""
+    return S.reshape(S.shape[:1] + (1,) * (rates.ndim - 2) + S.shape[1:])
+
+
 def link_twists(mech, ks, rates: np.ndarray) -> np.ndarray:
-    """World twists ``(B, nlinks, 6)`` of every link for coordinate rates ``(B, nv)``."""
-    return np.einsum("lc,bcs->bls", mech.tree.path_sign, ks["S"] * rates[..., None])
+    """World twists ``(B, ..., nlinks, 6)`` of every link for coordinate rates
+    ``(B, ..., nv)`` (several rate vectors per pose allowed)."""
+    return np.einsum("lc,...cs->...ls", mech.tree.path_sign,
+                     _per_rate(ks["S"], rates) * rates[..., None])
 
 
 def _carrier_twists(mech, ks, rates):
-    """Twist of the frame carrying each column ``(B, nv, 6)``."""
-    V = link_twists(mech, ks, rates)[:, ks["carrier"]]
+    """Twist of the frame carrying each column ``(B, ..., nv, 6)`` for rates ``(B, ..., nv)``:
+    its link's twist, plus the joint's own earlier coordinates (U, C, ...)."""
+    S = _per_rate(ks["S"], rates)
+    V = link_twists(mech, ks, rates)[..., ks["carrier"], :]
     for c, dep in enumerate(ks["deps"]):
         for d in dep:
-            V[:, c] += ks["S"][:, d] * rates[:, d, None]
+            V[..., c, :] += S[..., d, :] * rates[..., d, None]
     return V
 
 

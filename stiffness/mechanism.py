@@ -447,7 +447,7 @@ def _loaded(mechanism, ks, idx, free, Zr, lam, A0, colf, loop, along, Kq_s, svd,
     energy form ``uᵀ Kq v``; the held wrench about the carried point adds ``[f] δ`` (as
     for :meth:`Hexapod.loaded_stiffness`).  Returns ``(K, C)`` over the compliant
     directions ``Uc`` (scaled displacements)."""
-    from closure.kinematics import bracket
+    from closure.kinematics import _carrier_twists, bracket
     t = mechanism.tree
     b, n, r = Zr.shape
     Wt = np.broadcast_to(wrench, (b, 6))
@@ -471,10 +471,8 @@ def _loaded(mechanism, ks, idx, free, Zr, lam, A0, colf, loop, along, Kq_s, svd,
     rates = np.zeros((b, r, t.nv))
     rates[:, :, free] = np.swapaxes(Zr * colf[:, None], 1, 2)
     S = ks["S"][idx]                                       # (b, nv, 6)
-    Vc = np.einsum("lc,bcs,bjc->bjls", t.path_sign, S, rates)[:, :, ks["carrier"]]
-    for col, dep in enumerate(ks["deps"]):                 # columns moved by their joint's
-        for d in dep:                                      # earlier coordinates (U, C, ...)
-            Vc[:, :, col] += S[:, None, d] * rates[:, :, d, None]
+    Vc = _carrier_twists(mechanism, {"S": S, "carrier": ks["carrier"], "deps": ks["deps"]},
+                         rates)                            # (b, r, nv, 6)
     Wdot = bracket(Vc, S[:, None])[:, :, free]             # (b, r, n, 6)
     Hl = -np.einsum("bci,bcs,bjcs->bij", Zr * colf[:, None], Lam, Wdot)
     Hl += lam[:, :, None] * np.eye(r)

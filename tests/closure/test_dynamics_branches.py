@@ -78,7 +78,6 @@ def test_methods_are_scipys_public_classes_and_bad_arguments_are_named():
 
 
 def test_toggle_still_stops_with_the_trajectory():
-    from linkwright.references import fourbar_rod_reference  # noqa: F401  (same models module)
     from .test_dynamics import fourbar_model
     a, b, c, dd = 2.0, 2.5, 1.5, 3.0
     t_lim = np.arccos((a * a + dd * dd - (b + c) ** 2) / (2 * a * dd))

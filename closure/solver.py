@@ -98,13 +98,18 @@ def _pinv_parts(J, rank):
     U, s, Vt = np.linalg.svd(J, full_matrices=False)
     rank = min(rank, s.shape[-1])
     k = np.arange(s.shape[-1])
-    smax = s[..., :1]
-    keep = (k < rank) & (s > SINGULAR_RTOL * smax)
-    srank = s[..., rank - 1] if rank > 0 else np.ones(s.shape[:-1])
+    keep = (k < rank) & (s > SINGULAR_RTOL * s[..., :1])
     with np.errstate(divide="ignore", over="ignore"):
         inv_s = np.where(keep & (s > 1e-300), 1.0 / np.where(s > 0, s, 1.0), 0.0)
-        cond = np.where(srank > 0, smax[..., 0] / np.where(srank > 0, srank, 1.0), np.inf)
-    return U, inv_s, Vt, cond
+    return U, inv_s, Vt, _cond_of(s, rank)
+
+
+def _cond_of(s, rank):
+    """``s_max / s_rank`` from singular values ``(..., k)`` (inf where ``s_rank`` is 0)."""
+    rank = min(rank, s.shape[-1])
+    srank = s[..., rank - 1] if rank > 0 else np.ones(s.shape[:-1])
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        return np.where(srank > 0, s[..., 0] / np.where(srank > 0, srank, 1.0), np.inf)
 
 
 def _condition(J, rank):
@@ -112,11 +117,7 @@ def _condition(J, rank):
     from the singular values alone)."""
     if J.shape[-1] == 0 or J.shape[-2] == 0:
         return np.ones(J.shape[:-2])
-    s = np.linalg.svd(J, compute_uv=False)
-    rank = min(rank, s.shape[-1])
-    srank = s[..., rank - 1] if rank > 0 else np.ones(s.shape[:-1])
-    with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(srank > 0, s[..., 0] / np.where(srank > 0, srank, 1.0), np.inf)
+    return _cond_of(np.linalg.svd(J, compute_uv=False), rank)
 
 
 #: poses whose estimated condition number (an upper bound, within a factor min(m, n))

@@ -315,7 +315,8 @@ def _mechanism_key(message: str) -> str:
     """The key of a study a :class:`StiffnessError` of :func:`stiffness.of_mechanism` is
     about (``springs['P0']: …`` → ``elastic.springs``)."""
     head = message.split(":", 1)[0].strip()
-    for arg, key in (("springs", "elastic.springs"), ("locked", "elastic.locked"),
+    for arg, key in (("springs", "elastic.springs"), ("link_springs", "elastic.link"),
+                     ("locked", "elastic.locked"),
                      ("platform", "elastic.platform"), ("point", "elastic.point"),
                      ("wrench", "report.wrench"), ("pose", "elastic.inputs")):
         if head == arg or head.startswith(arg + "[") or head.startswith(arg + " "):
@@ -344,7 +345,7 @@ def _mechanism_inputs(study: Study):
         raise e.error("platform", f"expected a moving link ({', '.join(mech.links[1:])}), "
                                   f"got {platform!r}")
     springs = {k: (float(v) if not isinstance(v, list) else [float(x) for x in v])
-               for k, v in e.get("springs", "any").items()}
+               for k, v in e.get("springs", "any", {}).items()}
     locked = e.get("locked", "strs", None)
     x = e.get("inputs", "vec")
     labels = mech.input_labels()
@@ -355,12 +356,61 @@ def _mechanism_inputs(study: Study):
     return mech, e, platform, springs, locked, x, point
 
 
+def link_springs(e, mech) -> list:
+    """``[[elastic.link]]``: each beam as ``(link, joint, F, K, length)`` for
+    :func:`stiffness.of_mechanism` (F at the tip, x along the beam from the joint's
+    origin, y the section's y axis; K its end stiffness), checked with the study's keys."""
+    from stiffness import beam_stiffness
+    out = []
+    for i, b in enumerate(e.sections("link", required=False)):
+        link, joint = b.get("link", "str"), b.get("joint", "str")
+        if link not in mech.links[1:]:
+            raise b.error("link", f"expected a moving link ({', '.join(mech.links[1:])}), "
+                                  f"got {link!r}")
+        names = [j.name for j in mech.joints]
+        if joint not in names:
+            raise b.error("joint", f"no joint named {joint!r}; joints: {', '.join(names)}")
+        j = mech.joints[names.index(joint)]
+        if link not in (j.link_a, j.link_b):
+            raise b.error("joint", f"joint {joint!r} joins {j.link_a!r} and {j.link_b!r}, not "
+                                   f"the link {link!r}")
+        root = (j.frame_a if j.link_a == link else j.frame_b)[:3, 3]
+        tip = b.get("tip", "vec3")
+        axis = tip - root
+        span = float(np.linalg.norm(axis))
+        size = max(float(mech.tree.scale), 1e-300)
+        if span <= 1e-9 * size:
+            raise b.error("tip", f"the tip {fmt_list(tip)} is at the joint {joint!r}'s origin: "
+                                 "expected the beam's other end")
+        x = axis / span
+        ydir = b.get("y_axis", "vec3", None)
+        if ydir is None:
+            ydir = np.eye(3)[int(np.argmin(np.abs(x)))]
+        y = ydir - x * (x @ ydir)
+        if np.linalg.norm(y) <= 1e-6 * max(np.linalg.norm(ydir), 1e-300):
+            raise b.error("y_axis", f"{fmt_list(ydir)} is along the beam; expected a direction "
+                                    "across it")
+        y = y / np.linalg.norm(y)
+        F = np.eye(4)
+        F[:3, :3] = np.c_[x, y, np.cross(x, y)]
+        F[:3, 3] = tip
+        length = b.get("length", "float", span)
+        K = beam_stiffness(length, E=b.get("E", "float"), G=b.get("G", "float"),
+                           area=b.get("area", "float"), Iy=b.get("Iy", "float"),
+                           Iz=b.get("Iz", "float"), J=b.get("J", "float"))
+        out.append((link, joint, F, K, length))
+    return out
+
+
 def _of_mechanism(study, e, mech, pose, **kw):
     """:func:`stiffness.of_mechanism` with its errors as study errors (exit 2)."""
     from stiffness import of_mechanism
     try:
         return of_mechanism(mech, pose, **kw)
     except SingularPoseError as err:
+        if str(err).startswith("wrench:"):                  # a critical (buckling) load
+            raise StudyError(study.path, "report.wrench", str(err).split(":", 1)[1].strip()) \
+                from None
         msg = str(err).split(":", 1)[1].strip() if str(err).startswith("pose:") else str(err)
         raise e.error("springs", msg) from None
     except StiffnessError as err:
@@ -389,7 +439,9 @@ def run_mechanism(study: Study, out: Outputs, progress) -> dict:
         R, p = T[:3, :3].T, T[:3, :3] @ point + T[:3, 3]
     else:
         R, p = np.eye(3), np.zeros(3)
-    kw = dict(platform=platform, springs=springs, locked=locked, frame=(R, p))
+    beams = link_springs(e, mech) or None
+    kw = dict(platform=platform, springs=springs, locked=locked, link_springs=beams,
+              frame=(R, p))
     res = _of_mechanism(study, e, mech, pose, **kw)
     loaded = _of_mechanism(study, e, mech, pose, wrench=wrench, **kw) if wrench is not None \
         else None
@@ -402,6 +454,7 @@ def run_mechanism(study: Study, out: Outputs, progress) -> dict:
         "Mechanism stiffness report"
     rep, tables, summary = mechanism_report(
         mech, pose, res, platform=platform, springs=springs, locked=locked, point=point,
+        link_springs=beams,
         frame_name=frame, wrench=wrench, loaded=loaded, map_inputs=values, title=title,
         source=f"Study: {study.path.name}.", progress=progress)
     for name, df in tables.items():
@@ -468,7 +521,7 @@ def _rigid_words(C, n_rigid: int, L: float) -> str:
 
 
 def mechanism_report(mech, pose, res, *, platform: str, springs: dict, locked, point,
-                     frame_name: str, wrench=None, loaded=None, map_inputs=None,
+                     link_springs=None, frame_name: str, wrench=None, loaded=None, map_inputs=None,
                      title: str = "Mechanism stiffness report", source: str = "",
                      progress=None, figures: bool = True):
     """The stiffness report of a mechanism's link at one solved pose (``linkwright
@@ -481,6 +534,8 @@ def mechanism_report(mech, pose, res, *, platform: str, springs: dict, locked, p
     res : MechanismStiffness at ``pose`` in the report's frame (unloaded)
     platform, springs, locked, point
         As in the study's ``[elastic]`` (``point``: world coordinates at assembly, m).
+    link_springs : list of (link, joint, F, K, length) or None
+        Elastic links (beams), as :func:`link_springs` gives them.
     frame_name : "platform" or "base"
     wrench : (6,) or None
         Load case about the base origin (N, N·m); ``loaded`` its loaded stiffness.
@@ -537,7 +592,15 @@ def mechanism_report(mech, pose, res, *, platform: str, springs: dict, locked, p
     rep.table(pd.DataFrame(rows, columns=["quantity", "value", "unit"]))
     rep.heading("Joint coordinates")
     unit_of = {}
+    beams = {f"{b[0]}@{b[1]}": b for b in link_springs or []}
     for lab in res.elastic:
+        if lab in beams:
+            Kb, Lb = beams[lab][3], beams[lab][4]
+            unit_of[lab] = (f"beam of length {fmt_q(Lb, 'm')}: EA/L {fmt_q(Kb[0, 0], 'N/m')}, "
+                            f"tip bending {fmt_q(1 / np.linalg.inv(Kb)[1, 1], 'N/m')} and "
+                            f"{fmt_q(1 / np.linalg.inv(Kb)[2, 2], 'N/m')}, torsion "
+                            f"{fmt_q(Kb[3, 3], 'N·m/rad')}",)
+            continue
         key = lab if lab in springs else lab.split(".")[0]
         v = springs.get(key)
         if isinstance(v, list):
@@ -545,7 +608,8 @@ def mechanism_report(mech, pose, res, *, platform: str, springs: dict, locked, p
             v = v[names.index(lab)] if len(v) == len(names) else v[0]
         unit_of[lab] = (v, "N/m" if coordinate_unit(mech, lab) == "m" else "N·m/rad")
     rep.table(pd.DataFrame(
-        [("elastic", lab, fmt_q(*unit_of[lab])) for lab in res.elastic] +
+        [("elastic", lab, unit_of[lab][0] if len(unit_of[lab]) == 1 else fmt_q(*unit_of[lab]))
+         for lab in res.elastic] +
         [("locked", ", ".join(res.locked) or "none", "rigid")] +
         [("passive", ", ".join(res.passive) or "none", "free")],
         columns=["role", "coordinate", "stiffness"]), max_rows=None)
@@ -583,8 +647,10 @@ def mechanism_report(mech, pose, res, *, platform: str, springs: dict, locked, p
         rep.text(f"W = f {fmt_q(W[:3], 'N')}, m {fmt_q(W[3:], 'N·m')} about the base origin; "
                  f"about the reference point in the {axes_words}: f {fmt_q(Wp[:3], 'N')}, "
                  f"m {fmt_q(Wp[3:], 'N·m')}. The loaded stiffness adds the geometric term of "
-                 "the joint forces that carry the load (not symmetric in general); the "
-                 "deflection is the linear one, Δ = C W.")
+                 "the joint forces that carry the load (not symmetric in general)"
+                 + ("; elastic links carry it through their deflection, and their axial "
+                    "forces change their bending stiffness (P-δ)" if link_springs else "")
+                 + "; the deflection is the linear one, Δ = C W.")
         rep.table(pd.DataFrame([("translation δ", fmt_list(d[:3]), "m"),
                                 ("rotation θ", fmt_list(d[3:]), "rad")],
                                columns=["deflection of the reference point", "value", "unit"]))
@@ -608,6 +674,7 @@ def mechanism_report(mech, pose, res, *, platform: str, springs: dict, locked, p
         with warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)
             mp = mechanism_map(mech, mpose, platform=platform, springs=springs, locked=locked,
+                               link_springs=link_springs,
                                point=point)
         tables["map.csv"] = mp
         _mechanism_map_section(rep, mp, labels, iu, figures)

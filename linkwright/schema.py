@@ -236,6 +236,9 @@ class StiffnessStudy(Section):
             if self.pose is not None:
                 raise StudyError(path, "pose", "[pose] goes with [hexapod]; a mechanism's "
                                  "pose is `elastic.inputs`")
+            if self.elastic.springs is None and self.elastic.link is None:
+                raise StudyError(path, "elastic.springs", "missing: give joint springs, "
+                                 "elastic links ([[elastic.link]]) or both")
             if self.map is not None:
                 for k in ("x", "y", "z"):
                     if getattr(self.map, k) is not None:
@@ -301,11 +304,15 @@ class ElasticSection(Section):
 
     platform: Name = F(doc="the link whose stiffness is wanted (the moving platform, the "
                            "tool holder)", example="head")
-    springs: Stiffnesses = F(
-        doc="spring of each elastic joint or coordinate (`S0.wx`, `C1.s`, …): one number for "
-            "every coordinate of the joint, or one per coordinate; N/m for slides (P, the `s` "
-            "of C), N·m/rad for rotations", unit="N/m or N·m/rad",
-        example={"P0": 2.0e7, "P1": 2.0e7, "P2": 2.0e7})
+    springs: Optional[Stiffnesses] = F(
+        None, doc="spring of each elastic joint or coordinate (`S0.wx`, `C1.s`, …): one number "
+        "for every coordinate of the joint, or one per coordinate; N/m for slides (P, the `s` "
+        "of C), N·m/rad for rotations", unit="N/m or N·m/rad",
+        example={"P0": 2.0e7, "P1": 2.0e7, "P2": 2.0e7},
+        default_text="(none: then at least one `[[elastic.link]]`)")
+    link: Optional[Annotated[list["LinkSpringSection"], Field(min_length=1)]] = F(
+        None, "elastic links: straight beams, each clamped at one of its joints",
+        default_text="(none: the links are rigid)")
     locked: Optional[list[Name]] = F(None, "joints or coordinates held rigidly",
                                      example=["R0"],
                                      default_text="the inputs without a spring",
@@ -320,6 +327,37 @@ class ElasticSection(Section):
                               default_text="the platform link's origin")
 
 
+PositiveNumber = Annotated[float, Field(allow_inf_nan=False, gt=0), Kind("a number")]
+
+
+class LinkSpringSection(Section):
+    """An elastic link: a straight beam (Euler–Bernoulli, with the P-δ effect of its axial
+    force under load) from the origin of the joint it is clamped at to its free end `tip`,
+    where the link's other joint is.  Its 6x6 end compliance is a virtual spring in series
+    with that joint (the virtual-joint method)."""
+
+    link: Name = F(doc="the elastic link", example="upper0")
+    joint: Name = F(doc="the joint of `link` at which the beam is clamped (its root)",
+                    example="P0")
+    tip: Vec3 = F(doc="the beam's free end (world coordinates at the assembly pose), "
+                      "usually the link's other joint", unit="m", example=[0.0, 0.12, 0.35])
+    length: Optional[PositiveNumber] = F(
+        None, "the beam's length", unit="m", example=0.37,
+        default_text="the distance from the joint's origin to `tip`")
+    area: PositiveNumber = F(doc="cross-section area A", unit="m²", example=3.0e-4)
+    Iy: PositiveNumber = F(doc="second moment of the section about its y axis", unit="m⁴",
+                           example=2.5e-8)
+    Iz: PositiveNumber = F(doc="second moment of the section about its z axis", unit="m⁴",
+                           example=2.5e-8)
+    J: PositiveNumber = F(doc="torsion constant of the section", unit="m⁴", example=5.0e-8)
+    E: PositiveNumber = F(doc="Young's modulus", unit="Pa", example=2.1e11)
+    G: PositiveNumber = F(doc="shear modulus", unit="Pa", example=8.1e10)
+    y_axis: Optional[Vec3] = F(None, "direction of the section's y axis (made perpendicular "
+                               "to the beam)", unit="1", example=[0.0, 0.0, 1.0],
+                               default_text="the world axis most perpendicular to the beam")
+
+
+ElasticSection.model_rebuild()
 StiffnessStudy.model_rebuild()
 
 

@@ -17,14 +17,15 @@ of_mechanism            K and C of a link of any closure.Mechanism: elastic, loc
                         passive joints (MechanismStiffness); mechanism_map: its
                         compliance indices over a batch of poses, in chunks
 beam_stiffness          6x6 end stiffness of a beam (Euler–Bernoulli, Timoshenko shear):
-                        elastic links for of_mechanism's link_springs
+                        elastic links for of_mechanism's link_springs; its P-δ term under
+                        an axial force: beam_geometric_stiffness
 design_leg_stiffness    convex (LMI) allocation of leg stiffness with cvxpy
 report                  Markdown + CSV stiffness report
 StiffnessError          bad input (names the argument and the expected shape); its subclass
                         SingularPoseError: a singular pose (gives cond(P) or cond(K))
 SingularPoseWarning     near-singular pose (leg forces, deflections amplified ~cond(P))
 """
-from .beam import beam_compliance, beam_stiffness
+from .beam import beam_compliance, beam_geometric_stiffness, beam_stiffness
 from .design import design_leg_stiffness
 from .errors import SingularPoseError, SingularPoseWarning, StiffnessError
 from .hexapod import Hexapod, StiffnessResult
@@ -47,5 +48,5 @@ __all__ = [
     "translational_eigenvalues", "rotational_compliance_eigenvalues", "Hexapod",
     "StiffnessResult", "design_leg_stiffness", "report", "plot_map", "StiffnessError", "SingularPoseError",
     "SingularPoseWarning", "of_mechanism", "MechanismStiffness", "mechanism_map", "beam_stiffness",
-    "beam_compliance",
+    "beam_compliance", "beam_geometric_stiffness",
 ]

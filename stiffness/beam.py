@@ -6,7 +6,7 @@ import numpy as np
 from .errors import StiffnessError
 from .validate import number
 
-__all__ = ["beam_compliance", "beam_stiffness"]
+__all__ = ["beam_compliance", "beam_stiffness", "beam_geometric_stiffness"]
 
 
 def beam_compliance(length, *, E, G, area, Iy, Iz, J, shear_area_y=None,
@@ -71,3 +71,34 @@ def beam_stiffness(length, *, E, G, area, Iy, Iz, J, shear_area_y=None,
     if not np.all(np.isfinite(K)):                # pragma: no cover - positive inputs
         raise StiffnessError("length: the beam's compliance is singular")
     return 0.5 * (K + K.T)
+
+
+def beam_geometric_stiffness(length, axial_force) -> np.ndarray:
+    """The consistent geometric stiffness of a straight beam's free end (6x6, F's axes and
+    order ``(δ, θ)``, x along the beam from the clamped end): the P-δ effect of the axial
+    force ``N`` (N, tension positive) on bending, from the cubic (Hermite) deflection
+    shapes of matrix structural analysis (Przemieniecki, *Theory of Matrix Structural
+    Analysis*): ``N/L`` times ``6/5`` on the lateral deflections, ``2L²/15`` on the bending
+    rotations and ``∓L/10`` coupling them.  The axial and torsional (Wagner) terms are
+    not included.
+
+    Parameters
+    ----------
+    length : float
+        Beam length L (m).
+    axial_force : float
+        Axial force N (N), tension positive (compression lowers the bending stiffness).
+
+    Returns
+    -------
+    numpy.ndarray, shape (6, 6)
+        Blocks N/m, N/rad, N·m/rad, to add to :func:`beam_stiffness` under load.
+    """
+    L = number(length, "length", positive=True)
+    N = number(axial_force, "axial_force")
+    G = np.zeros((6, 6))
+    G[1, 1] = G[2, 2] = 6 / (5 * L)
+    G[4, 4] = G[5, 5] = 2 * L / 15
+    G[1, 5] = G[5, 1] = -1 / 10                    # δy with θz (θz = dδy/dx)
+    G[2, 4] = G[4, 2] = 1 / 10                     # δz with θy (θy = −dδz/dx)
+    return N * G

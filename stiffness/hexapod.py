@@ -12,10 +12,29 @@ from closure.frames import exp_so3, skew
 from .errors import SingularPoseError, SingularPoseWarning, StiffnessError
 from .matrices import _congruence
 from .sixvector import rotate_six, shift_wrench, wrench_transform
-from .validate import (as_array, broadcast, first_bad, number, points, reference_frame,
-                       transform)
+from .validate import (ROTATION_TOL, as_array, broadcast, first_bad, number, points,
+                       reference_frame, transform)
 
 __all__ = ["Hexapod", "StiffnessResult"]
+
+#: the unique products u_a u_b of a leg direction (a ≤ b)
+_PAIRS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
+# rotation check on the rows (T00 … T23): products of entries _CHK_A × _CHK_B, combined
+_CHK_A = np.array([0, 1, 2, 4, 5, 6, 0, 1, 2, 1, 2, 0, 2, 0, 1])
+_CHK_B = np.array([0, 1, 2, 4, 5, 6, 4, 5, 6, 6, 4, 5, 5, 6, 4])
+_CHK_SEL = np.zeros((6, 18))
+_CHK_SEL[0, 0:3] = _CHK_SEL[1, 3:6] = _CHK_SEL[2, 6:9] = 1.0
+for _k in range(3):
+    _CHK_SEL[3 + _k, [9 + _k, 12 + _k, 15 + _k]] = (1.0, -1.0, -1.0)
+_CHK_OFF = np.array([1.0, 1.0, 0.0, 0.0, 0.0, 0.0])[:, None]
+#: cond(P) from the Gram matrix's eigenvalues up to this value (relative error about
+#: cond² · ε there, below 1e-7); above it, from singular values
+GRAM_COND_LIMIT = 1e4
+#: poses per chunk of :meth:`Hexapod.map` (bounds its working memory)
+MAP_CHUNK = 4096
+#: the float columns of a map, in order (then ``singular``)
+_MAP_FLOATS = ("x", "y", "z", "rx", "ry", "rz", "kt_min", "kt_max", "cr_max", "cond_P")
 
 
 @dataclass(repr=False)
@@ -468,7 +487,7 @@ class Hexapod:
                                True, float(c))
 
     # ---------------------------------------------------------------- maps
-    def map(self, positions, rotations=None) -> pd.DataFrame:
+    def map(self, positions, rotations=None, *, chunk: int = MAP_CHUNK) -> pd.DataFrame:
         """Stiffness indices over every combination of positions × orientations (vectorised).
 
         Parameters
@@ -477,6 +496,9 @@ class Hexapod:
             Platform origins in the base frame (m).
         rotations : array_like, shape (R, 3), optional
             Platform orientations as rotation vectors (rad); default the identity.
+        chunk : int
+            Poses evaluated at a time (pose ``i`` is position ``i // R``, rotation
+            ``i % R``).
 
         Returns
         -------
@@ -488,31 +510,74 @@ class Hexapod:
             reference point and in any axes: the translational block of K and the
             rotational block of C do not change when the reference point moves, and a
             rotation of the axes keeps their eigenvalues.
+
+        Notes
+        -----
+        The poses are generated and evaluated ``chunk`` at a time into the table's own
+        preallocated columns, so the working memory is the output (81 bytes per pose)
+        plus one chunk; :meth:`map_chunks` yields the table a chunk at a time for maps
+        larger than memory.
         """
+        pos, rv, chunk = self._map_args(positions, rotations, chunk)
+        B = pos.shape[0] * rv.shape[0]
+        values = np.empty((B, len(_MAP_FLOATS)))
+        singular = np.empty(B, bool)
+        for a in range(0, B, chunk):
+            self._map_chunk(pos, rv, a, min(B, a + chunk), values[a:a + chunk],
+                            singular[a:a + chunk])
+        return self._map_frame(values, singular, 0)
+
+    def map_chunks(self, positions, rotations=None, *, chunk: int = MAP_CHUNK):
+        """:meth:`map` a chunk of ``chunk`` poses at a time: an iterator of DataFrames (the
+        rows of :meth:`map`, with its index), in bounded memory however many poses
+        ``positions × rotations`` makes (write each chunk out as it comes)."""
+        pos, rv, chunk = self._map_args(positions, rotations, chunk)
+        B = pos.shape[0] * rv.shape[0]
+        for a in range(0, B, chunk):
+            b = min(B, a + chunk)
+            values, singular = np.empty((b - a, len(_MAP_FLOATS))), np.empty(b - a, bool)
+            self._map_chunk(pos, rv, a, b, values, singular)
+            yield self._map_frame(values, singular, a)
+
+    @staticmethod
+    def _map_args(positions, rotations, chunk):
         pos = points(positions, "positions")
         rv = np.zeros((1, 3)) if rotations is None else points(rotations, "rotations")
-        Rm = exp_so3(rv)
-        B = pos.shape[0] * rv.shape[0]
-        T = np.zeros((pos.shape[0], rv.shape[0], 4, 4))
-        T[..., :3, :3] = Rm[None]
-        T[..., :3, 3] = pos[:, None]
-        T[..., 3, 3] = 1
-        T = T.reshape(B, 4, 4)
-        K, c = self.stiffness_batch(T, "platform")
+        if isinstance(chunk, bool) or not isinstance(chunk, (int, np.integer)) or chunk < 1:
+            raise StiffnessError(f"chunk: expected a positive integer (poses per chunk), got "
+                                 f"{chunk!r}")
+        return pos, rv, int(chunk)
+
+    def _map_chunk(self, pos, rv, a, b, values, singular):
+        """Rows ``a:b`` of the map (pose ``a`` is position ``a // R``, rotation ``a % R``)
+        into ``values (b − a, 10)`` and ``singular (b − a,)``."""
+        ip, ir = np.divmod(np.arange(a, b), rv.shape[0])
+        n = b - a
+        T = np.zeros((n, 4, 4))
+        T[:, :3, :3] = exp_so3(rv)[ir]
+        T[:, :3, 3] = pos[ip]
+        T[:, 3, 3] = 1.0
+        K, c = self._batch_base(T, True)
+        values[:, 0:3] = pos[ip]
+        values[:, 3:6] = rv[ir]
+        # the translational block of K and the rotational block of C keep their eigenvalues
+        # about any reference point and in any axes: the base frame's K serves
         kt = np.linalg.eigvalsh(K[:, :3, :3])
+        values[:, 6], values[:, 7] = kt[:, 0], kt[:, 2]
         sing = c > self.singular_cond
-        cr = np.full((B, 3), np.nan)
+        values[:, 8] = np.nan
         if (~sing).any():
             C = np.linalg.inv(K[~sing])[:, 3:, 3:]
-            cr[~sing] = np.linalg.eigvalsh(0.5 * (C + np.swapaxes(C, -1, -2)))
-        df = pd.DataFrame({
-            "x": T[:, 0, 3], "y": T[:, 1, 3], "z": T[:, 2, 3],
-            "rx": np.repeat(rv[None], pos.shape[0], 0).reshape(B, 3)[:, 0],
-            "ry": np.repeat(rv[None], pos.shape[0], 0).reshape(B, 3)[:, 1],
-            "rz": np.repeat(rv[None], pos.shape[0], 0).reshape(B, 3)[:, 2],
-            "kt_min": kt[:, 0], "kt_max": kt[:, 2], "cr_max": cr[:, 2], "cond_P": c,
-            "singular": sing,
-        })
+            values[~sing, 8] = np.linalg.eigvalsh(0.5 * (C + np.swapaxes(C, -1, -2)))[:, 2]
+        values[:, 9] = c
+        singular[:] = sing
+
+    @staticmethod
+    def _map_frame(values, singular, start) -> pd.DataFrame:
+        """The map's DataFrame over ``values`` without copying them."""
+        df = pd.DataFrame(values, columns=list(_MAP_FLOATS), copy=False,
+                          index=pd.RangeIndex(start, start + len(values)))
+        df["singular"] = singular
         df.attrs["reference"] = "platform origin (the indices are the same about any point)"
         df.attrs["units"] = {"kt_min": "N/m", "kt_max": "N/m", "cr_max": "rad/(N·m)"}
         return df
@@ -520,7 +585,23 @@ class Hexapod:
     def stiffness_batch(self, T, frame=None, cond: bool = True):
         """K ``(B, 6, 6)`` and cond(P) ``(B,)`` for a batch of poses, no warnings
         (the caller flags singular rows).  ``frame``: None (base origin) or "platform".
-        ``cond=False`` skips the singular values (cond is then None)."""
+        ``cond=False`` skips the condition numbers (cond is then None).
+
+        Notes
+        -----
+        About the base origin, K is linear in the legs' direction products ``u uᵀ`` (the
+        moment ``m = b × u`` of a leg is a constant matrix times u), so each block of poses
+        costs one matrix product ``(B, 6n) @ (6n, 36)`` after the legs' directions, with the
+        checks of the transforms fused into the same pass.  cond(P) is taken from the
+        eigenvalues of the dimensionless Gram matrix ``P Pᵀ`` (``cond = sqrt(λmax/λmin)``),
+        recomputed by singular values where it exceeds :data:`GRAM_COND_LIMIT` (squaring the
+        condition would lose its digits there).
+        """
+        if (type(T) is np.ndarray and T.dtype == np.float64 and T.ndim == 3
+                and T.shape[1:] == (4, 4) and frame is None):
+            if not isinstance(cond, (bool, np.bool_)):
+                raise StiffnessError(f"cond: expected True or False, got {type(cond).__name__}")
+            return self._batch_base(T, cond)
         T = transform(T, "T")
         if not isinstance(cond, (bool, np.bool_)):
             raise StiffnessError(f"cond: expected True or False, got {type(cond).__name__}")
@@ -538,6 +619,104 @@ class Hexapod:
             if cond:
                 c[sl] = ci
         return K, c
+
+    # ------------------------------------------------------- fast batched kernel
+    #: poses per block of the fused kernel (its temporaries stay in cache)
+    _FAST_BLOCK = 1024
+
+    def _kernel_maps(self):
+        """``(Md (3n, 13), L (6n, 36))``: leg vectors ``d = R p + t − b`` from the rows
+        ``(T00 … T23, 1)`` of a pose, and K's 36 entries from the products ``u_a u_b``
+        (rows pair-major: ``q n + i`` for pair q of leg i)."""
+        cached = getattr(self, "_maps", None)
+        if cached is not None:
+            return cached
+        n = self.base.shape[0]
+        Md = np.zeros((3 * n, 13))
+        for r in range(3):
+            Md[r * n:(r + 1) * n, 4 * r:4 * r + 3] = self.platform
+            Md[r * n:(r + 1) * n, 4 * r + 3] = 1.0
+            Md[r * n:(r + 1) * n, 12] = -self.base[:, r]
+        L = np.zeros((6 * n, 36))
+        for q, (a, b) in enumerate(_PAIRS):
+            E = np.zeros((3, 3))
+            E[a, b] = E[b, a] = 1.0
+            for i in range(n):
+                G = np.vstack([np.eye(3), skew(self.base[i])])   # (u, b × u) = G u
+                L[q * n + i] = (self.k[i] * G @ E @ G.T).ravel()
+        self._maps = (Md, L)
+        return self._maps
+
+    def _batch_base(self, T, cond):
+        """K about the base origin (and cond(P)) of a float64 batch ``(B, 4, 4)``, the
+        transforms checked on the way (an invalid one raises as :func:`transform` does)."""
+        B, n = T.shape[0], self.base.shape[0]
+        Md, Lk = self._kernel_maps()
+        K = np.empty((B, 6, 6))
+        c = np.empty(B) if cond else None
+        Kf = K.reshape(B, 36)
+        Tf = T.reshape(B, 16)
+        blk = max(1, min(self._FAST_BLOCK, B))
+        X = np.empty((13, blk))
+        X[12] = 1.0
+        D = np.empty((3 * n, blk))
+        U = np.empty((6, n, blk))
+        Z = np.empty((18, blk))
+        tol = ROTATION_TOL
+        zero2 = (self._ZERO_LEG * self.size) ** 2
+        for s in range(0, B, blk):
+            m = min(B, s + blk) - s
+            Xb, Db, Ub = X[:, :m], D[:, :m], U[:, :, :m]
+            Xb[:12] = Tf[s:s + m, :12].T
+            # the transforms: finite, last row (0, 0, 0, 1), rows orthonormal, right-handed
+            # (r0·r0 − 1, r1·r1 − 1, r0·r1, r0 × r1 − r2 from 15 products and one product
+            # by a constant matrix)
+            Zb = Z[:, :m]
+            np.multiply(Xb[_CHK_A], Xb[_CHK_B], out=Zb[:15])
+            Zb[15:] = Xb[8:11]
+            E = _CHK_SEL @ Zb
+            E -= _CHK_OFF
+            if not (np.abs(E).max() <= tol and np.abs(Tf[s:s + m, 12:] - _LAST_ROW).max() <= tol
+                    and np.isfinite(Xb[3:12:4]).all()):
+                transform(T, "T")                        # raises with the pose's index
+            np.matmul(Md, Xb, out=Db)
+            d = Db.reshape(3, n, m)
+            L2 = d[0] * d[0]
+            L2 += d[1] * d[1]
+            L2 += d[2] * d[2]
+            if L2.min() <= zero2:
+                self._leg_matrix(T)                      # raises with the pose's index
+            inv = 1.0 / L2
+            for q, (a, b) in enumerate(_PAIRS):
+                np.multiply(d[a], d[b], out=Ub[q])
+                Ub[q] *= inv
+            np.matmul(Ub.reshape(6 * n, m).T, Lk, out=Kf[s:s + m])
+            if cond:
+                c[s:s + m] = self._cond_fast(d, inv, T[s:s + m])
+        return K, c
+
+    def _cond_fast(self, d, inv, T):
+        """cond(P) of a block from its leg vectors ``d (3, n, m)``: eigenvalues of the
+        dimensionless Gram matrix, singular values where it is ill conditioned."""
+        u = d * np.sqrt(inv)                                  # (3, n, m)
+        q = self.platform - self._centroid
+        R = T[:, :3, :3]
+        rq = np.einsum("mij,nj->imn", R, q)                   # (3, m, n) R (p − c)
+        Ps = np.empty((T.shape[0], 6, d.shape[1]))
+        ut = u.transpose(0, 2, 1)                             # (3, m, n)
+        Ps[:, :3] = ut.transpose(1, 0, 2)
+        Ps[:, 3] = (rq[1] * ut[2] - rq[2] * ut[1]) / self.radius
+        Ps[:, 4] = (rq[2] * ut[0] - rq[0] * ut[2]) / self.radius
+        Ps[:, 5] = (rq[0] * ut[1] - rq[1] * ut[0]) / self.radius
+        w = np.linalg.eigvalsh(Ps @ np.swapaxes(Ps, 1, 2))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            c = np.sqrt(w[:, -1] / w[:, 0])
+        bad = ~(c <= GRAM_COND_LIMIT)
+        if bad.any():
+            sv = np.linalg.svd(Ps[bad], compute_uv=False)
+            with np.errstate(divide="ignore"):
+                c[bad] = np.where(sv[:, -1] > 0, sv[:, 0] / sv[:, -1], np.inf)
+        return c
 
     def _stiffness_block(self, T, frame, cond):
         P = self._leg_matrix(T)

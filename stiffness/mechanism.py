@@ -25,11 +25,12 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .beam import beam_geometric_stiffness
 from .errors import SingularPoseError, StiffnessError
 from .sixvector import rotate_six, twist_transform
 from closure.frames import adjoint, skew
 
-from .validate import as_array, reference_frame, transform, vec3
+from .validate import as_array, number, reference_frame, transform, vec3
 
 __all__ = ["MechanismStiffness", "of_mechanism", "mechanism_map"]
 
@@ -101,21 +102,44 @@ class MechanismStiffness:
                 "passive coordinates)")
 
 
+@dataclass(frozen=True)
+class _LinkSpring:
+    """A checked link spring: link and joint (names, indices), its frame F (4, 4, world at
+    the assembly pose), stiffness K (6, 6), beam length (m, or None) and label."""
+
+    link: str
+    joint: str
+    li: int
+    col: int
+    F: np.ndarray
+    K: np.ndarray
+    length: float | None
+    label: str
+
+    def __iter__(self):                         # (li, col, F, K, label), the unloaded view
+        return iter((self.li, self.col, self.F, self.K, self.label))
+
+
 def _link_springs(mech, link_springs) -> list:
-    """Checked ``(link index, joint column, F (4, 4), K (6, 6), label)`` of each link spring."""
+    """Checked :class:`_LinkSpring` of each item of ``link_springs``."""
     if link_springs is None:
         return []
     if isinstance(link_springs, (str, dict)) or not hasattr(link_springs, "__iter__"):
-        raise StiffnessError("link_springs: expected a list of (link, joint, frame, K), got "
-                             f"{type(link_springs).__name__}")
+        raise StiffnessError("link_springs: expected a list of (link, joint, frame, K) or "
+                             f"(link, joint, frame, K, length), got {type(link_springs).__name__}")
     out = []
     for i, item in enumerate(link_springs):
         where = f"link_springs[{i}]"
         try:
-            link, joint, F, K = item
+            link, joint, F, K, *rest = item
+            if len(rest) > 1:
+                raise ValueError
         except (TypeError, ValueError):
-            raise StiffnessError(f"{where}: expected (link, joint, frame, K), got "
-                                 f"{type(item).__name__}") from None
+            raise StiffnessError(f"{where}: expected (link, joint, frame, K) or (link, joint, "
+                                 f"frame, K, length), got {type(item).__name__}") from None
+        length = None
+        if rest and rest[0] is not None:
+            length = number(rest[0], f"{where}: length", positive=True)
         if not isinstance(link, str) or link not in mech.links or link == mech.links[0]:
             raise StiffnessError(f"{where}: link: expected a moving link, got {link!r}")
         names = [j.name for j in mech.joints]
@@ -130,8 +154,11 @@ def _link_springs(mech, link_springs) -> list:
             raise StiffnessError(f"{where}: frame: expected one 4x4 transform, got shape "
                                  f"{F.shape}")
         K6 = _spd(K, f"{where}: K", 6)
-        out.append((mech.tree.link_index[link], mech.tree.v_offset[j.index], F, K6,
-                    f"{link}@{joint}"))
+        if any(x.link == link and x.joint == joint for x in out):
+            raise StiffnessError(f"{where}: the link {link!r} is given two springs at the joint "
+                                 f"{joint!r}; expected one (add their compliances)")
+        out.append(_LinkSpring(link, joint, mech.tree.link_index[link],
+                               mech.tree.v_offset[j.index], F, K6, length, f"{link}@{joint}"))
     return out
 
 
@@ -236,14 +263,17 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict | None = None,
     locked : iterable of str, optional
         Joints or coordinates held rigidly.  Default: the mechanism's inputs that have
         no spring (actuators locked).  Every other coordinate without a spring is passive.
-    link_springs : list of (link, joint, frame, K), optional
+    link_springs : list of (link, joint, frame, K) or (link, joint, frame, K, length)
         Elastic links (the virtual-joint method): the link deforms between its body and
         its attachment to ``joint`` by a small displacement resisted by the 6x6 stiffness
         ``K`` (about the origin of ``frame``, in its axes; blocks N/m, N/rad, N·m/rad).
         ``frame`` is a 4x4 transform given, like joint frames, in world coordinates at
         the assembly pose; :func:`beam_stiffness` gives K for a beam.  A beam joining
         ``joint`` to the link's other joint is a cantilever clamped at ``joint``: take
-        ``frame`` at the other end, x along the beam away from ``joint``.
+        ``frame`` at the other end, x along the beam away from ``joint``.  With a
+        ``length`` (m) the link is such a straight beam and, under a ``wrench``, its axial
+        force N changes its bending stiffness (:func:`beam_geometric_stiffness`, the
+        P-δ effect); without one it is a general 6x6 spring with no such term.
     frame : "base" (or None), "platform" or (R, p)
         The result's reference point and axes: the ground's (world) origin and axes (the
         default), the platform link's frame, or origin ``p`` (world coordinates, m) with
@@ -257,8 +287,8 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict | None = None,
         the springs are statically determinate, as in a hexapod or a 3-RPS), the loops
         by the least-norm loop wrenches (no self-stress); moving the mechanism turns the
         joints that carry these forces, which adds the geometric term (non-symmetric
-        where a moment acts about the reference point).  Joint springs only (not with
-        ``link_springs``).
+        where a moment acts about the reference point).  An elastic link is then the
+        explicit chain of its deformation (see Notes); the pose is its loaded shape.
 
     Returns
     -------
@@ -271,7 +301,8 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict | None = None,
         Bad arguments (naming them).
     SingularPoseError
         A pose where the platform can move without deforming any spring (a free motion
-        of the mechanism: lock or spring more joints), or a pose that is not solved.
+        of the mechanism: lock or spring more joints), a pose that is not solved, or a
+        ``wrench`` at a critical (buckling) load, where the loaded stiffness is singular.
 
     Notes
     -----
@@ -279,6 +310,22 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict | None = None,
     the mechanism's centre, lengths divided by its size), so the result does not depend
     on where the world origin is.  One SVD and one symmetric eigenproblem per pose,
     batched; poses are grouped only where the Jacobian's rank differs (singular poses).
+
+    Elastic links under load.  Each link spring is made an explicit chain in a copy of
+    the mechanism: the joint is cut from the link and ends on the beam's root, which
+    carries the link's body through three slides along the frame's axes and a spherical
+    joint at its origin, so the spring's six coordinates are the nodal displacements of
+    matrix structural analysis: the tip point's translation, then the rotation about it,
+    in the frame's axes carried by the root.  ``K`` is the link's tangent stiffness in
+    these coordinates at the (loaded) pose.  The load then reaches every geometric term
+    through the engine's twist brackets like any joint: the load carried by the link
+    from its deflected tip (the transport of the wrench along the deflected link), the
+    turning of the joints beyond it, and the loops.  A beam given its ``length`` also
+    gets the consistent geometric stiffness of its axial force N (tension positive),
+    ``N/L [6/5, 2L²/15, ∓L/10]`` on its bending coordinates (one cubic beam element:
+    a cantilever column's critical load comes out 2.486 EI/L², 0.75 % above Euler's
+    π²EI/4L²); the axial shortening by bending and the torsional (Wagner) terms are not
+    modelled.
     """
     _check(mechanism, pose, platform)
     bad = np.flatnonzero(np.atleast_1d(pose.status) >= 2)
@@ -292,12 +339,19 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict | None = None,
         if wrench.shape != (6,):
             raise StiffnessError(f"wrench: expected a wrench (f, m) of shape (6,) (N, N·m), got "
                                  f"shape {wrench.shape}")
-        if roles[4]:
-            raise StiffnessError("wrench: the loaded stiffness takes joint springs only; "
-                                 "link_springs are not supported under load")
     ks = pose.kinematics()
     R, p = _frame(frame, ks["link"][:, mechanism.tree.link_index[platform]])
-    res, free = _stiffness(mechanism, ks, platform, roles, R, p, wrench)
+    if wrench is not None and roles[4]:
+        # elastic links under load: their deformation joints made explicit (see _augment)
+        aug, ks_a, roles_a, beams = _augment(mechanism, pose, roles)
+        res, free = _stiffness(aug, ks_a, platform, roles_a, R, p, wrench, beams)
+        res.elastic = _labels(mechanism, roles[1]) + [x.label for x in roles[4]]
+        res.locked, res.passive = _labels(mechanism, roles[2]), _labels(mechanism, roles[3])
+        # the loop condition as the unloaded result reports it (the copy's extra joints
+        # move the centre and size that make its Jacobian dimensionless)
+        res.condition = _stiffness(mechanism, ks, platform, roles, R, p)[0].condition
+    else:
+        res, free = _stiffness(mechanism, ks, platform, roles, R, p, wrench)
     res.loaded = wrench is not None
     if free.any():
         b = int(np.flatnonzero(free)[0])
@@ -354,7 +408,62 @@ def _columns(mechanism, ks, platform, roles, free):
             np.concatenate(scale), Kall)
 
 
-def _stiffness(mechanism, ks, platform, roles, R, p, wrench=None):
+def _augment(mechanism, pose, roles):
+    """The mechanism with each link spring's deformation made explicit, for the loaded
+    stiffness: the spring's link *l* is cut from its joint *c*, which now ends on a new
+    link (the attachment, the beam's root), and the attachment carries *l*'s body through
+    three slides along the axes of the spring's frame F followed by a spherical joint at
+    F's origin (the tip).  These six coordinates are the nodal displacements of the tip
+    relative to the root (the tip point's translation, then the rotation about it, in F's
+    axes carried by the root), in F's order ``(δ, θ)``, so the spring's K applies to them
+    as it stands; the engine's own twist brackets then give every geometric term of the
+    load carried through the deflected link.
+
+    Returns the augmented mechanism, its kinematic state at ``pose`` (undeformed links:
+    the same link poses), its roles (the spring blocks added to Kq as elastic columns)
+    and ``[(first column, length or None)]`` of each spring."""
+    from closure import Mechanism
+    Kq, elastic, lock, passive, links = roles
+    t = mechanism.tree
+    aug = Mechanism(mechanism.links[1:] + [f"{x.label}:{k}" for x in links
+                                           for k in ("root", "x", "y", "z")],
+                    ground=mechanism.ground)
+    cut = {(x.joint, x.link): f"{x.label}:root" for x in links}
+    for j in mechanism.joints:                            # a cut joint ends on the root(s)
+        a, b = cut.get((j.name, j.link_a), j.link_a), cut.get((j.name, j.link_b), j.link_b)
+        aug.add_joint(j.name, j.kind, a, b, at=(j.frame_a, j.frame_b),
+                      pitch=j.pitch if j.kind == "H" else None)
+    perm = ((1, 2, 0), (2, 0, 1), (0, 1, 2))              # slide frames: z along F's x, y, z
+    for x in links:
+        F = x.F
+        chain = [f"{x.label}:{k}" for k in ("root", "x", "y", "z")] + [x.link]
+        for k in range(3):
+            Fk = F.copy()
+            Fk[:3, :3] = F[:3, :3][:, perm[k]]
+            aug.add_joint(f"{x.label}:d{'xyz'[k]}", "P", chain[k], chain[k + 1], at=Fk)
+        aug.add_joint(f"{x.label}:r", "S", chain[3], chain[4], at=F)
+    for ji, k in mechanism.inputs:
+        aug.add_input(mechanism.joints[ji].name, k)
+    ta = aug.tree
+    B = pose.q.shape[0]
+    q = np.concatenate([pose.q, np.zeros((B, ta.nq - t.nq))], 1)
+    rot = np.concatenate([pose.rot.reshape(B, t.ns, 3, 3),
+                          np.broadcast_to(np.eye(3), (B, len(links), 3, 3))], 1)
+    ks = aug.kinematic_state((q, rot))
+    n = ta.nv
+    Kq_a = np.zeros((n, n))
+    Kq_a[:t.nv, :t.nv] = Kq
+    beams, new = [], []
+    for i, x in enumerate(links):
+        c0 = t.nv + 6 * i
+        Kq_a[c0:c0 + 6, c0:c0 + 6] = x.K
+        beams.append((c0, x.length))
+        new += range(c0, c0 + 6)
+    roles_a = (Kq_a, np.r_[elastic, new].astype(int), lock, passive, [])
+    return aug, ks, roles_a, beams
+
+
+def _stiffness(mechanism, ks, platform, roles, R, p, wrench=None, beams=()):
     """The result for one batch of kinematic states in the frames ``R (B, 3, 3)``, ``p (B,
     3)``, and which poses have a free motion (their K, C are left zero there).  With a
     ``wrench`` (6,) about the world origin, the loaded stiffness."""
@@ -422,19 +531,29 @@ def _stiffness(mechanism, ks, platform, roles, R, p, wrench=None):
                 H6 = rotate_six(R[j])                     # world axes → the frame's
                 Kl, Cl = _loaded(mechanism, ks, j, free, Zr, lam_r, A0[j], colf, loop, along,
                                  Kq_s, (UJ[j], s[j], Vt[j], rank[j]), wrench, p[j],
-                                 np.swapaxes(H6, 1, 2) @ U[h, :, :nc], unit)
+                                 np.swapaxes(H6, 1, 2) @ U[h, :, :nc], unit, beams)
                 K[j] = H6 @ Kl @ np.swapaxes(H6, 1, 2)
                 C[j] = H6 @ Cl @ np.swapaxes(H6, 1, 2)
 
     _by_rank(rank, group)
     rigid[free_motion] = 0
     return MechanismStiffness(K, C, rigid, np.array(p, dtype=float), np.array(R, dtype=float),
-                              cond, _labels(mechanism, elastic) + [x[4] for x in links],
+                              cond, _labels(mechanism, elastic) + [x.label for x in links],
                               _labels(mechanism, lock), _labels(mechanism, passive)), free_motion
 
 
+#: the permutation symbol ε_kij (cross products as contractions)
+_EPS = np.zeros((3, 3, 3))
+_EPS[0, 1, 2] = _EPS[1, 2, 0] = _EPS[2, 0, 1] = 1.0
+_EPS[0, 2, 1] = _EPS[2, 1, 0] = _EPS[1, 0, 2] = -1.0
+
+#: the loaded energy form is refused as singular (a critical load) when its smallest
+#: singular value is below this fraction of the softest unloaded energy eigenvalue
+CRITICAL_RTOL = 1e-10
+
+
 def _loaded(mechanism, ks, idx, free, Zr, lam, A0, colf, loop, along, Kq_s, svd, wrench, p,
-            Uc, unit):
+            Uc, unit, beams=()):
     """Loaded stiffness and compliance about the carried points ``p`` (world axes) of the
     poses ``idx``, from their energy-storing modes ``Zr (b, n, r)`` (dimensionless
     coordinates of the columns ``free``) with energies ``lam (b, r)``.
@@ -476,15 +595,55 @@ def _loaded(mechanism, ks, idx, free, Zr, lam, A0, colf, loop, along, Kq_s, svd,
     Wdot = bracket(Vc, S[:, None])[:, :, free]             # (b, r, n, 6)
     Hl = -np.einsum("bci,bcs,bjcs->bij", Zr * colf[:, None], Lam, Wdot)
     Hl += lam[:, :, None] * np.eye(r)
+    # a spherical joint's coordinates are angular velocities, not a chart: a spring on it
+    # (linear in the rotation vector of the joint's turn, K its Hessian there) holding a
+    # moment τ adds −½ τ · (u × v) to the form (the second derivative of the rotation
+    # vector along the angular velocities u, v)
+    for j in mechanism.joints:
+        if j.kind != "S":
+            continue
+        c0 = mechanism.tree.v_offset[j.index]
+        i0 = int(np.searchsorted(free, c0))
+        if i0 + 2 >= len(free) or free[i0] != c0:
+            continue
+        Us = Zr[:, i0:i0 + 3]                              # (b, 3, r), rad per mode
+        Hl += 0.5 * np.einsum("bk,kij,bir,bjs->brs", tau[:, i0:i0 + 3], _EPS, Us, Us)
+    for c0, length in beams:                               # the beams' own P-δ term
+        if length is None:
+            continue
+        i0 = int(np.searchsorted(free, c0))
+        sl = slice(i0, i0 + 6)
+        N = tau[:, i0] / colf[i0]                          # axial force (N), tension > 0
+        Gs = beam_geometric_stiffness(length, 1.0) * colf[sl, None] * colf[sl]
+        Hl += N[:, None, None] * np.einsum("bir,ij,bjs->brs", Zr[:, sl], Gs, Zr[:, sl])
     M = twist_transform(np.eye(3), p) @ A0 @ Zr            # Δ about p, world axes
-    Cp = M @ np.linalg.solve(Hl, np.swapaxes(M, 1, 2))
     Qi, Qd = Uc * unit[:, None], Uc / unit[:, None]        # D U_c and D⁻¹ U_c
+    # the unloaded stiffness on the compliant directions: the scale of "singular"
+    Mq = np.swapaxes(Qi, 1, 2) @ M
+    K0 = np.linalg.inv(Mq @ (np.swapaxes(Mq, 1, 2) / lam[:, :, None]))
+    soft = np.linalg.svd(K0, compute_uv=False)[:, -1]
+    sv = np.linalg.svd(Hl, compute_uv=False)
+    _critical(idx, sv[:, -1] / sv[:, 0] < 1e-14, "its energy form is singular")
+    Cp = M @ np.linalg.solve(Hl, np.swapaxes(M, 1, 2))
     Kp = Qi @ np.linalg.inv(np.swapaxes(Qi, 1, 2) @ Cp @ Qi) @ np.swapaxes(Qi, 1, 2)
     G = np.zeros((b, 6, 6))
     G[:, 3:, :3] = skew(Wt[:, :3])                         # m' = m − δ × f adds [f] δ
     Kc = Kp + Qi @ np.swapaxes(Qd, 1, 2) @ G @ Qd @ np.swapaxes(Qi, 1, 2)
     Kr = np.swapaxes(Qd, 1, 2) @ Kc @ Qd                   # on the compliant directions
+    low = np.linalg.svd(Kr, compute_uv=False)[:, -1] / soft
+    _critical(idx, ~(low > CRITICAL_RTOL), "its smallest singular value is "
+              f"{float(np.min(low)):.1e} of the unloaded one's")
     return Kc, Qd @ np.linalg.inv(Kr) @ np.swapaxes(Qd, 1, 2)
+
+
+def _critical(idx, bad, why):
+    """Raise at the first pose ``bad`` where the load is critical (the loaded stiffness is
+    singular: a buckling load)."""
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise SingularPoseError(f"wrench: at pose index {int(idx[i])} the loaded stiffness is "
+                                f"singular ({why}): the load is at a critical (buckling) load "
+                                "of the mechanism")
 
 
 def mechanism_map(mechanism, pose, *, platform: str, springs: dict | None = None, locked=None,

@@ -191,10 +191,84 @@ def test_the_examples_use_only_documented_keys():
     except ModuleNotFoundError:  # Python 3.10
         import tomli as tomllib
     text = schema.reference("stiffness")
-    for path in (RPS, DELTA):
+    for path in (RPS, DELTA, BEAMS):
         data = tomllib.loads(path.read_text(encoding="utf-8"))
         keys = schema.example_keys(data)
         assert "elastic.springs" in keys and not any(k.startswith("elastic.springs.")
                                                       for k in keys)
         for key in keys:
             assert f"`{key}`" in text or f"`[{key}]`" in text or f"`[[{key}]]`" in text, key
+
+
+# ---------------------------------------------------------------- elastic links in a study
+BEAMS = EX / "three_rps_beams.toml"
+
+
+def _beams_by_hand(mech, data):
+    """The study's link springs built independently of the command: F at the tip with x
+    along the beam from the joint's origin (y the world axis most across it), K the
+    beam's end stiffness."""
+    from stiffness import beam_stiffness
+    out = []
+    for b in data["elastic"]["link"]:
+        j = next(j for j in mech.joints if j.name == b["joint"])
+        root, tip = j.frame_a[:3, 3], np.array(b["tip"], float)
+        x = (tip - root) / np.linalg.norm(tip - root)
+        y = np.eye(3)[np.argmin(np.abs(x))]
+        y = y - x * (x @ y)
+        y /= np.linalg.norm(y)
+        F = np.eye(4)
+        F[:3, :3], F[:3, 3] = np.c_[x, y, np.cross(x, y)], tip
+        L = float(np.linalg.norm(tip - root))
+        out.append((b["link"], b["joint"], F, beam_stiffness(
+            L, E=b["E"], G=b["G"], area=b["area"], Iy=b["Iy"], Iz=b["Iz"], J=b["J"]), L))
+    return out
+
+
+def test_elastic_links_study_equals_the_library(tmp_path, capsys):
+    """The shipped 3-RPS head with beam legs: the report's K, C and loaded K equal
+    `of_mechanism` with the beams built by hand; the legs' bending makes the three
+    directions the rigid legs held compliant."""
+    out = tmp_path / "b"
+    code, stdout, _ = run(["stiffness", BEAMS, "-o", out, "--json", "--quiet"], capsys)
+    assert code == 0
+    assert json.loads(stdout)["rigid_directions"] == 0
+    study = load_study(BEAMS, "stiffness")
+    mech, _, platform, springs, locked, x, point = _mechanism_inputs(study)
+    beams = _beams_by_hand(mech, study.data)
+    assert len(beams) == 3
+    pose = mech.solve(x)
+    T = np.asarray(pose.link_frame(platform), float).reshape(-1, 4, 4)[0]
+    kw = dict(platform=platform, springs=springs, locked=locked, link_springs=beams,
+              frame=(T[:3, :3].T, T[:3, :3] @ point + T[:3, 3]))
+    res = of_mechanism(mech, pose, **kw)
+    W = np.array(study.data["report"]["wrench"], float)
+    loaded = of_mechanism(mech, pose, wrench=W, **kw)
+    rigid_legs = of_mechanism(mech, pose, **{**kw, "link_springs": None})
+    for name, ref in (("stiffness.csv", res.K[0]), ("compliance.csv", res.C[0]),
+                      ("loaded_stiffness.csv", loaded.K[0])):
+        M = pd.read_csv(out / name).drop(columns="row").to_numpy()
+        assert np.abs(M - ref).max() <= 1e-12 * np.abs(ref).max(), name
+    assert res.rigid[0] == 0 and rigid_legs.rigid[0] == 3
+    # the beams add compliance: C with elastic legs exceeds C with rigid ones (PSD difference)
+    assert np.linalg.eigvalsh(res.C[0] - rigid_legs.C[0]).min() > -1e-12 * np.abs(res.C[0]).max()
+    rep = (out / "report.md").read_text(encoding="utf-8")
+    assert "upper0@P0" in rep and "beam of length 0.3734 m" in rep and "P-δ" in rep
+    mp = pd.read_csv(out / "map.csv")
+    assert len(mp) == 7 and mp.ok.all() and (mp.rigid == 0).all()
+
+
+def test_elastic_link_bad_keys(tmp_path, capsys):
+    p = edited(tmp_path, BEAMS, r'^link = "upper0"', 'link = "uper0"')
+    _fails(tmp_path, capsys, p, "elastic.link[0].link", "'uper0'")
+    p = edited(tmp_path, BEAMS, r'^joint = "P1" +#', 'joint = "S0"  #', "j.toml")
+    _fails(tmp_path, capsys, p, "elastic.link[1].joint", "'S0'", "'upper1'")
+    p = edited(tmp_path, BEAMS, r"^tip = \[0.0, 0.12, 0.35\]", "tip = [0.0, 0.25, 0.0]", "t.toml")
+    _fails(tmp_path, capsys, p, "elastic.link[0].tip", "origin")
+    p = edited(tmp_path, BEAMS, r"^area = 2.545e-4", "area = -2.545e-4", "a.toml")
+    _fails(tmp_path, capsys, p, "elastic.link[0].area", "> 0")
+    p = edited(tmp_path, BEAMS, r"^springs = .*$", "", "s.toml")
+    text = p.read_text(encoding="utf-8")
+    p.write_text(text[:text.index("[[elastic.link]]")] + text[text.index("[report]"):],
+                 encoding="utf-8")
+    _fails(tmp_path, capsys, p, "elastic.springs", "[[elastic.link]]")

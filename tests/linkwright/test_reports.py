@@ -55,7 +55,7 @@ def reports(folder):
 
 def test_every_demo_report_starts_with_findings(demo):
     folder, _ = demo
-    assert len(reports(folder)) == 7
+    assert len(reports(folder)) == 8
     for p in reports(folder):
         lines = [ln for ln in p.read_text().splitlines() if ln.strip()]
         assert lines[0].startswith("# ")
@@ -113,7 +113,8 @@ def test_json_summaries_carry_units(demo, tmp_path, capsys):
     _, summary = demo
     results = summary["results"]
     assert set(results) == {"fourbar_dynamics", "hexapod", "seed000_swash_plate",
-                            "seed001_rrr", "seed004_cylinder", "three_rps_head", "delta_robot"}
+                            "seed001_rrr", "seed004_cylinder", "three_rps_head", "delta_robot",
+                            "three_rps_beams"}
     for name, s in results.items():
         assert _bare_floats(s) == [], name
     assert results["hexapod"]["kt_min"]["unit"] == "N/m"

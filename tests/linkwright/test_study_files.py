@@ -26,7 +26,7 @@ DOC = ROOT / "docs" / "study-files.md"
 COMMAND_OF = {"seed001_rrr.toml": "synth", "hexapod.toml": "stiffness",
               "seed004_cylinder.toml": "approx", "fourbar_dynamics.toml": "analyze",
               "seed000_swash_plate.toml": "analyze", "three_rps_head.toml": "stiffness",
-              "delta_robot.toml": "stiffness"}
+              "delta_robot.toml": "stiffness", "three_rps_beams.toml": "stiffness"}
 
 
 def run(args, capsys):

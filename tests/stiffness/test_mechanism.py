@@ -160,7 +160,9 @@ _GOOD = dict(mechanism=_M, pose=_POSE, platform="platform", springs=SPRINGS)
     (dict(frame=(np.eye(3), np.array([0, np.nan, 0]))), "frame p"), (dict(frame=3), "frame"),
     (dict(wrench=[0, 0, np.nan, 0, 0, 0]), "wrench"), (dict(wrench=[1.0, 2, 3]), "wrench"),
     (dict(wrench="up"), "wrench"),
-    (dict(wrench=np.zeros(6), link_springs=[("l0", "U0", np.eye(4), np.eye(6))]), "wrench"),
+    (dict(wrench=np.zeros(6), link_springs=[("l0", "U0", np.eye(4), np.eye(6), -1.0)]),
+     "link_springs[0]: length"),
+    (dict(link_springs=[("l0", "U0", np.eye(4), np.eye(6), 1.0, 2.0)]), "link_springs[0]"),
 ])
 def test_bad_arguments_are_named(change, arg):
     with pytest.raises(StiffnessError) as info:

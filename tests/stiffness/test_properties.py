@@ -151,7 +151,8 @@ def test_every_public_function_is_covered_by_the_bad_input_table():
         "design_leg_stiffness", "report", "plot_map", "StiffnessResult", "StiffnessError",
         "SingularPoseError", "SingularPoseWarning", "from_moment_first",
         # their own bad-input tables: test_mechanism and test_beams
-        "of_mechanism", "MechanismStiffness", "mechanism_map", "beam_stiffness", "beam_compliance"}
+        "of_mechanism", "MechanismStiffness", "mechanism_map", "beam_stiffness", "beam_compliance",
+        "beam_geometric_stiffness"}
     assert set(stiffness.__all__) <= covered
 
 

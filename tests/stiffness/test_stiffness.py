@@ -1,6 +1,7 @@
 import warnings
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from closure import exp_so3, skew as skew_c
@@ -401,3 +402,53 @@ def test_base_frame_by_name_and_map_indices_about_any_point():
         assert np.isclose(row.kt_min, np.linalg.eigvalsh(K[:3, :3])[0], rtol=1e-9)
         assert np.isclose(row.kt_max, np.linalg.eigvalsh(K[:3, :3])[-1], rtol=1e-9)
         assert np.isclose(row.cr_max, np.linalg.eigvalsh(C[3:, 3:])[-1], rtol=1e-9)
+
+
+def test_batch_kernel_matches_the_leg_matrix_and_svd_condition():
+    """The batched kernel (K from the legs' u uᵀ products; cond(P) from the Gram matrix's
+    eigenvalues, by singular values when ill conditioned) against P diag(k) Pᵀ and the SVD
+    per pose, across blocks, with a near-singular pose; a bad transform far into the
+    batch is refused (a non-finite one with its index)."""
+    import stiffness.hexapod as sh
+    hx = general_hexapod()
+    rng = np.random.default_rng(5)
+    n = 2 * hx._FAST_BLOCK + 7
+    T = np.array([pose(rng.normal(scale=0.15, size=3), rng.normal(scale=0.05, size=3) +
+                       [0, 0, 0.7]) for _ in range(n)])
+    T[3] = pose([0, 0, 0], [0, 0, 1e-7])                 # nearly flat: P near singular
+    K, c = hx.stiffness_batch(T)
+    for i in (0, 3, hx._FAST_BLOCK, n - 1):
+        P = hx.leg_matrix(T[i])
+        assert np.abs(K[i] - P @ np.diag(hx.k) @ P.T).max() <= 1e-14 * np.abs(K[i]).max()
+        assert np.isclose(c[i], hx.cond_P(T[i]), rtol=1e-9)
+    assert c[3] > sh.GRAM_COND_LIMIT and c[0] < sh.GRAM_COND_LIMIT
+    bad = T.copy()
+    bad[n - 2, 0, 0] = 1.01
+    with pytest.raises(StiffnessError, match="T rotation: not a proper rotation"):
+        hx.stiffness_batch(bad)
+    bad = T.copy()
+    bad[n - 2, 1, 3] = np.nan
+    with pytest.raises(StiffnessError, match=f"T: expected finite values, got nan at index "
+                                             f"\\({n - 2}, 1, 3\\)"):
+        hx.stiffness_batch(bad)
+
+
+def test_map_chunks_stream_the_same_rows_in_bounded_memory():
+    import tracemalloc
+    hx = general_hexapod()
+    g = np.linspace(-0.05, 0.05, 30)
+    pos = np.array(np.meshgrid(g, g, [0.65, 0.7, 0.75, 0.8])).reshape(3, -1).T    # 3600
+    rot = np.array([[0, 0, 0], [0.05, -0.02, 0.1]] * 4) * np.arange(1, 9)[:, None]
+    whole = hx.map(pos[:40], rot, chunk=7)
+    parts = list(hx.map_chunks(pos[:40], rot, chunk=64))
+    assert [len(p) for p in parts] == [64] * 5 and parts[1].index[0] == 64
+    assert whole.equals(pd.concat(parts)) and whole.equals(hx.map(pos[:40], rot))
+    hx.map(pos[:8], rot, chunk=512)                                  # warm up outside the trace
+    tracemalloc.start()
+    df = hx.map(pos, rot, chunk=512)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert len(df) == 28800 and peak / len(df) < 200                 # bytes per pose
+    for bad in (0, 2.5, True):
+        with pytest.raises(StiffnessError, match="chunk"):
+            hx.map(pos, chunk=bad)

@@ -8,6 +8,8 @@ Main names
 ----------
 Mechanism            links, joints, inputs; ``solve``, ``sweep``, analogs
 Pose                 a solved batch of poses with residual, iterations, condition
+KinematicState       link poses, joint frames, loop residuals and column twists of poses
+carrier_twists       twists of the frames carrying the columns (acceleration terms)
 STATUS, REACHED      the status codes of a pose; the statuses of poses that closed
 frame_from_points    a joint frame from three points (seed 000's rule)
 transform, inverse, exp_se3, log_se3, rot_x, rot_y, rot_z, rotation, skew
@@ -21,10 +23,11 @@ from .frames import (ad, adjoint, cross, euler_zxz, exp_se3, exp_so3, frame_from
                      log_se3, log_so3, rot_x, rot_y, rot_z, rotation, skew, transform,
                      translation, vee)
 from .joints import JOINT_KINDS, Joint
-from .kinematics import analogs, joint_analogs, point_analogs
+from .kinematics import analogs, carrier_twists, joint_analogs, link_twists, point_analogs
 from .mechanism import Mechanism
 from .pose import REACHED, STATUS, Pose
 from .solver import SolverOptions, solve, sweep
+from .state import KinematicState
 
 __all__ = [
     "Mechanism", "Pose", "STATUS", "REACHED", "Joint", "JOINT_KINDS", "SolverOptions", "MechanismError",
@@ -32,4 +35,5 @@ __all__ = [
     "frame_from_points", "transform", "translation", "inverse", "exp_se3", "log_se3",
     "exp_so3", "log_so3", "rot_x", "rot_y", "rot_z", "rotation", "skew", "hat", "vee",
     "adjoint", "ad", "euler_zxz", "Dynamics", "Body", "pseudo_inertia", "cross",
+    "KinematicState", "carrier_twists", "link_twists",
 ]

@@ -20,9 +20,10 @@ import numpy as np
 from .errors import MechanismError
 from .checks import shown
 from .frames import as_array, as_index, cross
-from .solver import _LstSq, _expected_rank
+from .lstsq import _LstSq, _expected_rank
+from .state import KinematicState
 
-__all__ = ["analogs", "bracket", "link_twists", "point_analogs", "joint_analogs"]
+__all__ = ["analogs", "bracket", "carrier_twists", "link_twists", "point_analogs", "joint_analogs"]
 
 
 def bracket(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -39,28 +40,64 @@ def _per_rate(S, rates):
     return S.reshape(S.shape[:1] + (1,) * (rates.ndim - 2) + S.shape[1:])
 
 
+def _parts(ks):
+    """``(S, carrier, deps)`` of a :class:`~closure.state.KinematicState`, or of a mapping
+    with those keys (the former dict form, still accepted)."""
+    if isinstance(ks, KinematicState):
+        return ks.S, ks.carrier, ks.deps
+    return ks["S"], ks["carrier"], ks["deps"]
+
+
 def link_twists(mech, ks, rates: np.ndarray) -> np.ndarray:
     """World twists ``(B, ..., nlinks, 6)`` of every link for coordinate rates
     ``(B, ..., nv)`` (several rate vectors per pose allowed)."""
-    return np.einsum("lc,...cs->...ls", mech.tree.path_sign,
-                     _per_rate(ks["S"], rates) * rates[..., None])
+    S = ks.S if isinstance(ks, KinematicState) else ks["S"]
+    return np.einsum("lc,...cs->...ls", mech.tree.path_sign, _per_rate(S, rates) * rates[..., None])
 
 
-def _carrier_twists(mech, ks, rates):
-    """Twist of the frame carrying each column ``(B, ..., nv, 6)`` for rates ``(B, ..., nv)``:
-    its link's twist, plus the joint's own earlier coordinates (U, C, ...)."""
-    S = _per_rate(ks["S"], rates)
-    V = link_twists(mech, ks, rates)[..., ks["carrier"], :]
-    for c, dep in enumerate(ks["deps"]):
+def carrier_twists(mech, ks, rates: np.ndarray) -> np.ndarray:
+    """World twists of the frames carrying the velocity coordinates' unit twists.
+
+    Column c's unit twist ``S_c`` is constant in the frame of its joint on link *a*
+    moved by the joint's own earlier coordinates (the Hooke joint's first pin carries
+    its second); that frame's twist is the link's twist plus those coordinates' twists.
+    It is the ``V_c`` of the acceleration term ``[V_c, S_c] q̇_c`` (the rate of change of
+    a column twist along a motion: ``Ṡ_c = [V_c, S_c]``).
+
+    Parameters
+    ----------
+    mech : Mechanism
+    ks : KinematicState
+        From :meth:`Mechanism.kinematic_state` or :meth:`Pose.kinematics` (a mapping
+        with keys ``"S"``, ``"carrier"`` and ``"deps"`` is also accepted).
+    rates : numpy.ndarray, shape (B, ..., nv)
+        Coordinate rates (rad/s or length/s; S joints: angular velocity in the *a* frame),
+        several rate vectors per pose allowed.
+
+    Returns
+    -------
+    numpy.ndarray, shape (B, ..., nv, 6)
+        World twists ``(v, ω)`` (length/s, rad/s), ``v`` the velocity of the body point
+        at the world origin.
+    """
+    S, carrier, deps = _parts(ks)
+    Sr = _per_rate(S, rates)
+    V = np.einsum("lc,...cs->...ls", mech.tree.path_sign, Sr * rates[..., None])[..., carrier, :]
+    for c, dep in enumerate(deps):
         for d in dep:
-            V[..., c, :] += S[..., d, :] * rates[..., d, None]
+            V[..., c, :] += Sr[..., d, :] * rates[..., d, None]
     return V
+
+
+#: the former private name (kept for callers that imported it)
+_carrier_twists = carrier_twists
 
 
 def _bias(mech, ks, a, b):
     """Column twist rates ``(B, nv, 6)``: ``[V_c(a), S_c] b_c``, symmetrised in (a, b)."""
-    Sa = bracket(_carrier_twists(mech, ks, a), ks["S"]) * b[..., None]
-    Sb = bracket(_carrier_twists(mech, ks, b), ks["S"]) * a[..., None]
+    S = _parts(ks)[0]
+    Sa = bracket(carrier_twists(mech, ks, a), S) * b[..., None]
+    Sb = bracket(carrier_twists(mech, ks, b), S) * a[..., None]
     return 0.5 * (Sa + Sb)
 
 
@@ -85,7 +122,10 @@ def analogs(mech, pose, second: bool = True, ks=None):
     if not isinstance(second, (bool, np.bool_)):
         raise MechanismError(f"analogs: second: expected True or False, got {shown(second)}")
     t = mech.tree
-    ks = ks or pose.kinematics()
+    ks = pose.kinematics() if ks is None else ks
+    if not second and isinstance(ks, KinematicState) and ks.first is not None \
+            and not np.isnan(ks.first).any():
+        return ks.first.copy(), None         # computed by the solver with its last step
     J = mech.jacobian(ks)
     unknown = mech.unknown_columns()
     inp = mech.input_columns()
@@ -175,10 +215,10 @@ def point_analogs(mech, pose, link: str, xyz):
     if p.shape != (3,):
         raise MechanismError(f"point_analogs: xyz must be a 3-vector, got shape {p.shape}")
     t = mech.tree
-    li = mech.links.index(link)
+    li = mech.tree.link_index[link]
     ks = pose.kinematics()
     first, sec = analogs(mech, pose, ks=ks)
-    T = ks["link"][:, li]
+    T = ks.link[:, li]
     x = T[:, :3, :3] @ p + T[:, :3, 3]
     ni = first.shape[2]
     V = np.stack([link_twists(mech, ks, first[:, :, i])[:, li] for i in range(ni)], 1)  # (B,ni,6)

@@ -17,8 +17,9 @@ import numpy as np
 
 from .checks import shown
 from .errors import MechanismError
-from .frames import _adjoint, _inverse, _log_se3, as_array, check_transform, input_rates
+from .frames import _inverse, as_array, check_transform, input_rates
 from .joints import JOINT_KINDS, Joint
+from .state import KinematicState, Plan
 
 __all__ = ["Mechanism"]
 
@@ -95,6 +96,7 @@ class Mechanism:
         self._q0: list[np.ndarray] = []
         self._rot0: list[np.ndarray | None] = []
         self._tree: _Tree | None = None
+        self._plan: Plan | None = None
         self._mobility: int | None = None
         for i, name in enumerate(links):
             if not isinstance(name, str) or not name:
@@ -224,6 +226,7 @@ class Mechanism:
         """The compiled spanning tree and loops (rebuilt after any change)."""
         if self._tree is None:
             self._tree = self._compile()
+            self._plan = Plan(self, self._tree)
             self._check_mobility()
         return self._tree
 
@@ -365,24 +368,16 @@ class Mechanism:
 
     def input_columns(self) -> np.ndarray:
         """Velocity-coordinate indices of the inputs, in declaration order."""
-        t = self.tree
-        return np.array([t.v_offset[ji] + k for ji, k in self.inputs], dtype=int)
+        return self.plan.input_v.copy()
 
     def input_q_columns(self) -> np.ndarray:
         """Stored-coordinate indices of the inputs, in declaration order."""
-        t = self.tree
-        return np.array([t.q_offset[ji] + k for ji, k in self.inputs], dtype=int)
+        return self.plan.input_q.copy()
 
     def unknown_columns(self) -> np.ndarray:
         """Velocity-coordinate indices solved for (all but the inputs); read-only, kept
         with the compiled tree (the solver asks for them at every call)."""
-        t = self.tree
-        cached = getattr(self, "_unknown_cache", None)
-        if cached is None or cached[0] is not t:
-            cols = np.setdiff1d(np.arange(t.nv), self.input_columns())
-            cols.flags.writeable = False
-            cached = self._unknown_cache = (t, cols)
-        return cached[1]
+        return self.plan.unknown
 
     def input_labels(self) -> list[str]:
         """Labels of the inputs (``joint`` or ``joint.coordinate``)."""
@@ -409,92 +404,42 @@ class Mechanism:
         return out
 
     # ------------------------------------------------------------ kinematics core
-    def kinematic_state(self, state, twists: bool = True):
+    @property
+    def plan(self) -> Plan:
+        """The compiled evaluation plan (index arrays and stacked constant frames), built
+        with the tree at the first solve and rebuilt after any change."""
+        _ = self.tree
+        return self._plan
+
+    def kinematic_state(self, state, twists: bool = True) -> KinematicState:
         """Link poses, joint frames and world-frame unit twists for a batch of states.
 
         Parameters
         ----------
         state : tuple (q (B, nq), rot (B, ns, 3, 3))
+        twists : bool
+            Also compute the column twists ``S``.
 
         Returns
         -------
-        dict with ``link`` (B, nlinks, 4, 4), ``frame_a`` (B, njoints, 4, 4) (the
-        world pose of each joint's *a* frame), ``A`` per joint (B, 4, 4),
-        ``S`` (B, nv, 6) world twists of the velocity coordinates, ``Sframe``
-        (per column: the column's carrying link index and the deps), and the
-        loop residual ``r`` (B, nloops, 6).
+        KinematicState
+            ``link`` (B, nlinks, 4, 4), ``frame_a`` (B, njoints, 4, 4) (the world pose of
+            each joint's *a* frame), ``A`` (B, njoints, 4, 4), the loop residual ``r``
+            (B, nloops, 6), ``S`` (B, nv, 6) world twists of the velocity coordinates,
+            ``carrier`` (per column: the index of the link carrying it) and ``deps``.
         """
-        t = self.tree
         q, rot = state
-        B = q.shape[0]
-        A = self._joint_matrices(q, rot)
-        lidx = t.link_index
-        link = np.empty((B, len(t.links), 4, 4))
-        link[:, 0] = np.eye(4)
-        for li in t.order[1:]:
-            j = self.joints[t.parent_joint[li]]
-            if t.forward[li]:
-                rel = j.frame_a @ A[j.index] @ j.frame_b_inv
-                link[:, li] = link[:, lidx[j.link_a]] @ rel
-            else:
-                rel = j.frame_b @ _inverse(A[j.index]) @ j.frame_a_inv
-                link[:, li] = link[:, lidx[j.link_b]] @ rel
-        frame_a = link[:, t.joint_link_a] @ t.frames_a
-        r = np.empty((B, len(t.chords), 6))
-        c = t.centre
-        for k, ci in enumerate(t.chords):
-            j = self.joints[ci]
-            G = frame_a[:, ci] @ A[ci] @ j.frame_b_inv @ _inverse(link[:, lidx[j.link_b]])
-            # about the mechanism's centre: T(-c) G T(c) = [R, R c + p - c]
-            G[:, :3, 3] += G[:, :3, :3] @ c - c
-            r[:, k] = _log_se3(G)
-        out = {"link": link, "frame_a": frame_a, "A": A, "r": r}
-        if not twists:
-            return out
-        S = np.empty((B, t.nv, 6))
-        carrier = np.empty(t.nv, dtype=int)
-        deps: list[tuple] = []
-        for j in self.joints:
-            fa = frame_a[:, j.index]
-            for k, (prefix, xi, dep) in enumerate(j.columns(q[:, t.q_offset[j.index]:])):
-                c = t.v_offset[j.index] + k
-                F = fa if prefix is None else fa @ prefix
-                S[:, c] = _adjoint(F) @ xi
-                carrier[c] = lidx[j.link_a]
-                deps.append(tuple(t.v_offset[j.index] + d for d in dep))
-        out.update(S=S, carrier=carrier, deps=deps)
-        return out
+        return self.plan.evaluate(q, rot, twists)
 
     def _joint_matrices(self, q, rot) -> list:
-        """A(q) of every joint, one vectorised call per joint kind (helical joints, whose
-        pitch differs, one by one)."""
-        t = self.tree
-        B = q.shape[0]
-        A = [None] * len(self.joints)
-        groups: dict[str, list] = {}
-        for j in self.joints:
-            groups.setdefault("H" if j.kind == "H" else j.kind, []).append(j)
-        for kind, js in groups.items():
-            if kind == "H":
-                for j in js:
-                    A[j.index] = j.matrix(q[:, t.q_offset[j.index]:t.q_offset[j.index] + 1])
-                continue
-            if kind == "S":
-                mats = np.zeros((B, len(js), 4, 4))
-                mats[..., :3, :3] = rot[:, [t.s_index[j.index] for j in js]]
-                mats[..., 3, 3] = 1.0
-            else:
-                nq = js[0].nq
-                cols = np.array([t.q_offset[j.index] for j in js])[:, None] + np.arange(nq)
-                mats = js[0].matrix(q[:, cols].reshape(-1, nq)).reshape(B, len(js), 4, 4)
-            for k, j in enumerate(js):
-                A[j.index] = mats[:, k]
-        return A
+        """A(q) of every joint, as a list of ``(B, 4, 4)`` arrays."""
+        A = self.plan.joint_matrices(q, rot)
+        return [A[:, k] for k in range(A.shape[1])]
 
     def jacobian(self, ks) -> np.ndarray:
         """Loop-closure Jacobian ``(B, 6·nloops, nv)`` in world twists ``(v, ω)``."""
         t = self.tree
-        J = np.einsum("lc,bcs->blsc", t.loop_coef, ks["S"])
+        J = np.einsum("lc,bcs->blsc", t.loop_coef, _twists_of(ks))
         return J.reshape(J.shape[0], -1, t.nv)
 
     def _scaled_rows(self, X) -> np.ndarray:
@@ -517,14 +462,11 @@ class Mechanism:
     def _scaled_jacobian(self, ks) -> np.ndarray:
         """Dimensionless Jacobian: twists about the centre, translation rows and length
         columns divided / multiplied by the scale."""
-        J = self._scaled_rows(self.jacobian(ks))
-        J[:, :, self.tree.length_cols] *= self.tree.scale
-        return J
+        plan = self.plan
+        return plan.scaled_jacobian(_twists_of(ks), plan.all_cols)
 
     def _scaled_residual(self, ks) -> np.ndarray:
-        r = ks["r"].copy()
-        r[..., :3] /= self.tree.scale
-        return r.reshape(r.shape[0], -1)
+        return self.plan.scaled_residual(ks.r if isinstance(ks, KinematicState) else ks["r"])
 
     # ------------------------------------------------------------ solving
     def solve(self, inputs, guess=None, *, options=None, raise_on_failure: bool = True,
@@ -569,3 +511,9 @@ class Mechanism:
         kinds = "".join(j.kind for j in self.joints)
         return (f"Mechanism({len(self.links)} links, joints {kinds}, "
                 f"{len(self.inputs)} inputs)")
+
+
+def _twists_of(ks) -> np.ndarray:
+    """The column twists ``S`` of a :class:`KinematicState` (or of a mapping with key
+    ``"S"``, the former form)."""
+    return ks.S if isinstance(ks, KinematicState) else ks["S"]

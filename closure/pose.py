@@ -8,6 +8,7 @@ import pandas as pd
 
 from .errors import MechanismError
 from .frames import as_array
+from .state import KinematicState
 
 __all__ = ["Pose", "STATUS", "REACHED"]
 
@@ -15,6 +16,10 @@ __all__ = ["Pose", "STATUS", "REACHED"]
 STATUS = {0: "ok", 1: "near-singular", 2: "no convergence", 3: "no assembly", 4: "dead point"}
 #: the statuses of a pose that closed (a sweep's rows with a pose)
 REACHED = ("ok", "near-singular")
+#: poses returned by the solver keep their kinematic state (link poses, joint frames,
+#: twists: about 2 KB per pose for an RSSR) only up to this many members; larger
+#: batches keep the coordinates alone and recompute the state when asked
+KEEP_STATE = 64
 
 
 @dataclass(repr=False)
@@ -38,7 +43,9 @@ class Pose:
         previous row of a sweep), over every internal step of the continuation.
     condition : numpy.ndarray, shape (B,)
         Condition number of the (dimensionless) Jacobian of the unknowns,
-        over its expected rank (idle freedoms excluded).
+        over its expected rank (idle freedoms excluded).  Where the solver's step
+        showed it to be at most ``closure.lstsq.FAST_COND`` (so below any limit that
+        flags a pose) it is computed on first access, by one batched SVD.
     status : numpy.ndarray of int, shape (B,)
         0 ok, 1 near-singular (condition above the limit), 2 no convergence,
         3 no assembly (converged to a loop transform that is not the identity),
@@ -60,19 +67,44 @@ class Pose:
     condition: np.ndarray
     status: np.ndarray
     scalar: bool = False
-    _ks: dict | None = field(default=None, repr=False, compare=False)
+    _ks: KinematicState | None = field(default=None, repr=False, compare=False)
     reached: np.ndarray | None = field(default=None, repr=False, compare=False)
+    _cond_pending: bool = field(default=False, repr=False, compare=False)
+
+    @property
+    def _raw_condition(self) -> np.ndarray:
+        """The condition numbers as stored (NaN where not yet computed)."""
+        return self.__dict__["_condition"]
+
+    def _fill_condition(self) -> None:
+        """Compute the condition numbers left NaN by the solver (batched SVD, in chunks)."""
+        from .lstsq import _condition, _expected_rank
+        c = self.__dict__["_condition"]
+        idx = np.nonzero(np.isnan(c))[0]
+        if idx.size:
+            m = self.mechanism
+            plan, unknown, rank = m.plan, m.unknown_columns(), _expected_rank(m)
+            ks = self._ks
+            for a in range(0, idx.size, 2048):
+                sub = idx[a:a + 2048]
+                if ks is not None and ks.S is not None:
+                    S = ks.S[sub]
+                else:
+                    S = plan.evaluate(self.q[sub], self.rot[sub]).S
+                c[sub] = _condition(plan.scaled_jacobian(S, unknown), rank)
+        self._cond_pending = False
 
     @property
     def state(self):
         """``(q, rot)``: the engine's state arrays."""
         return self.q, self.rot
 
-    def kinematics(self, twists: bool = True) -> dict:
-        """The engine's kinematic state of these poses (cached from the solver when it
-        holds what is asked; see :meth:`Mechanism.kinematic_state`)."""
+    def kinematics(self, twists: bool = True) -> KinematicState:
+        """The engine's kinematic state of these poses (see
+        :meth:`Mechanism.kinematic_state`): kept from the solver for small batches
+        (at most :data:`KEEP_STATE` poses), computed here and cached otherwise."""
         ks = self._ks
-        if ks is None or (twists and "S" not in ks):
+        if ks is None or (twists and ks.S is None):
             ks = self.mechanism.kinematic_state(self.state, twists=twists)
             self._ks = ks
         return ks
@@ -142,7 +174,7 @@ class Pose:
         m = self.mechanism
         if not isinstance(link, str) or link not in m.links:
             raise MechanismError(f"no link named {link!r}; links: {', '.join(m.links)}")
-        return self._out(self.kinematics(twists=False)["link"][:, m.links.index(link)])
+        return self._out(self.kinematics(twists=False).link[:, m.tree.link_index[link]])
 
     def point(self, link: str, xyz) -> np.ndarray:
         """World position ``(B, 3)`` of a point of ``link`` given by its ground coordinates
@@ -164,3 +196,18 @@ class Pose:
         df["iterations"] = self.iterations
         df["status"] = self.status_text
         return df
+
+
+def _get_condition(self) -> np.ndarray:
+    if self._cond_pending:
+        self._fill_condition()
+    return self.__dict__["_condition"]
+
+
+def _set_condition(self, value) -> None:
+    self.__dict__["_condition"] = value
+    self.__dict__["_cond_pending"] = False
+
+
+Pose.condition = property(_get_condition, _set_condition, doc="Condition number of the "
+                          "Jacobian of the unknowns ``(B,)`` (see the class notes).")

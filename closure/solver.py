@@ -10,7 +10,14 @@ freedoms, e.g. the spin of an S–S rod), which is least squares for
 overconstrained loops (Bennett, Bricard) and keeps idle freedoms still.  It is
 applied by batched Cholesky on the normal equations where the Jacobian is well
 conditioned and by the truncated SVD elsewhere (:class:`_LstSq`); the condition
-number is computed once, for the poses returned.
+number is computed once, for the poses returned (for well-conditioned poses when it
+is first read).
+
+Each iteration makes one call to the mechanism's compiled :class:`~closure.state.Plan`
+(link poses, loop residuals and column twists of the whole batch) and one
+factorisation, which serves the Newton step and the first-order analogs at once
+(the Jacobian's input columns are extra right-hand sides): the continuation's
+predictor takes its tangent from the corrector's last iteration.
 """
 from __future__ import annotations
 
@@ -19,10 +26,16 @@ import pandas as pd
 
 from .errors import ClosureError, MechanismError
 from .checks import shown
-from .frames import _log_so3
-from .pose import STATUS, Pose
+from .kinematics import analogs
+from .lstsq import (FAST_COND, SINGULAR_RTOL, _cond_of, _condition, _expected_rank, _LstSq,
+                    _pinv_parts)
+from .pose import KEEP_STATE, STATUS, Pose
+from .state import KinematicState
 
 __all__ = ["solve", "sweep", "predict", "SolverOptions"]
+
+#: the least-squares helpers now live in closure.lstsq; kept importable from here
+_FROM_LSTSQ = (SINGULAR_RTOL, _cond_of, _pinv_parts)
 
 
 class SolverOptions:
@@ -66,6 +79,16 @@ class SolverOptions:
         self.max_step, self.cond_limit = float(max_step), float(cond_limit)
         self.path_step = float(path_step)
 
+    def _corrector(self) -> "SolverOptions":
+        """The options of the continuation's corrector (at most 8 iterations), kept."""
+        c = self.__dict__.get("_corrector_opts")
+        if c is None or c.xtol != self.xtol or c.rtol != self.rtol or \
+                c.max_step != self.max_step or c.cond_limit != self.cond_limit or \
+                c.path_step != self.path_step or c.maxiter != min(self.maxiter, 8):
+            c = self.replace(maxiter=min(self.maxiter, 8))
+            self.__dict__["_corrector_opts"] = c
+        return c
+
     def replace(self, **kw) -> "SolverOptions":
         """A copy with some fields changed."""
         d = dict(xtol=self.xtol, rtol=self.rtol, maxiter=self.maxiter, max_step=self.max_step,
@@ -74,211 +97,20 @@ class SolverOptions:
         return SolverOptions(**d)
 
 
-def _expected_rank(mech) -> int:
-    n_unknown = mech.tree.nv - len(mech.inputs)
-    idle = mech.mobility - len(mech.inputs)
-    return n_unknown - idle
-
-
-#: singular values below this fraction of the largest are treated as zero in steps
-#: (minimum-norm steps at exactly singular poses, never a 1/0 blow-up)
-SINGULAR_RTOL = 1e-12
-
-
-def _pinv_parts(J, rank):
-    """Truncated SVD pieces of a batch of matrices: (U, inv_s, Vt, condition).
-
-    Keeps the ``rank`` largest singular values, and of those only the ones above
-    ``SINGULAR_RTOL`` times the largest; the condition is ``s_max / s_rank``."""
-    if J.shape[-1] == 0 or J.shape[-2] == 0:         # open chain: nothing to solve
-        k = min(J.shape[-2:])
-        B = J.shape[:-2]
-        return (np.zeros(B + (J.shape[-2], k)), np.zeros(B + (k,)),
-                np.zeros(B + (k, J.shape[-1])), np.ones(B))
-    U, s, Vt = np.linalg.svd(J, full_matrices=False)
-    rank = min(rank, s.shape[-1])
-    k = np.arange(s.shape[-1])
-    keep = (k < rank) & (s > SINGULAR_RTOL * s[..., :1])
-    with np.errstate(divide="ignore", over="ignore"):
-        inv_s = np.where(keep & (s > 1e-300), 1.0 / np.where(s > 0, s, 1.0), 0.0)
-    return U, inv_s, Vt, _cond_of(s, rank)
-
-
-def _cond_of(s, rank):
-    """``s_max / s_rank`` from singular values ``(..., k)`` (inf where ``s_rank`` is 0)."""
-    rank = min(rank, s.shape[-1])
-    srank = s[..., rank - 1] if rank > 0 else np.ones(s.shape[:-1])
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        return np.where(srank > 0, s[..., 0] / np.where(srank > 0, srank, 1.0), np.inf)
-
-
-def _condition(J, rank):
-    """Condition number ``s_max / s_rank`` of a batch of matrices (as :func:`_pinv_parts`,
-    from the singular values alone)."""
-    if J.shape[-1] == 0 or J.shape[-2] == 0:
-        return np.ones(J.shape[:-2])
-    return _cond_of(np.linalg.svd(J, compute_uv=False), rank)
-
-
-#: poses whose estimated condition number (an upper bound, within a factor min(m, n))
-#: is at most this solve by the normal equations (Cholesky, one step of iterative
-#: refinement); the others by the truncated SVD
-FAST_COND = 1e6
-
-
-class _LstSq:
-    """Minimum-norm least-squares solutions ``J X = R`` for a batch of matrices ``J``
-    (B, m, n) truncated to ``rank``: the pseudo-inverse of :func:`_pinv_parts`.
-
-    Where the expected rank is full (``min(m, n)``) the Gram matrix ``G`` (``J Jᵀ`` for
-    wide, ``Jᵀ J`` for tall matrices) is factored by a batched Cholesky and solves take
-    one step of iterative refinement; poses whose factorisation fails or whose condition
-    estimate ``sqrt(tr G · tr G⁻¹)`` (at least the condition, at most ``min(m, n)``
-    times it) exceeds :data:`FAST_COND`, and every pose of a mechanism whose expected
-    rank is below ``min(m, n)``, use the truncated SVD as before (minimum-norm steps,
-    never a 1/0).  No singular value is truncated at a Cholesky pose (its condition is
-    far below ``1 / SINGULAR_RTOL``), so both give the same pseudo-inverse.
-
-    Attributes
-    ----------
-    cond : (B,)
-        ``s_max / s_rank`` for SVD poses, NaN for Cholesky poses (see :func:`_condition`).
-    """
-
-    def __init__(self, J, rank):
-        B, m, n = J.shape
-        k = min(m, n)
-        self.J, self.wide = J, m < n
-        self._inv_smin = np.zeros(B)
-        self.fast = self._gram(J) if B and k and min(rank, k) == k else np.zeros(B, bool)
-        self.slow = np.nonzero(~self.fast)[0]
-        self.cond = np.full(B, np.nan)
-        if self.slow.size:
-            U, inv_s, Vt, cond = _pinv_parts(J[self.slow], rank)
-            self.U, self.inv_s, self.Vt = U, inv_s, Vt
-            self._inv_smin[self.slow] = np.max(inv_s, axis=1, initial=0.0)
-            self.cond[self.slow] = cond
-
-    def _gram(self, J):
-        """Factor the Gram matrices; the poses that take the Cholesky path."""
-        B = J.shape[0]
-        Jt = np.swapaxes(J, 1, 2)
-        G = J @ Jt if self.wide else Jt @ J
-        ok = None
-        try:
-            L = np.linalg.cholesky(G)
-        except np.linalg.LinAlgError:          # some not positive definite: screen them
-            with np.errstate(all="ignore"):
-                lam = np.linalg.eigvalsh(G)
-            ok = lam[:, 0] > 1e-13 * lam[:, -1]
-            L = np.tile(np.eye(G.shape[1]), (B, 1, 1))
-            try:
-                L[ok] = np.linalg.cholesky(G[ok])
-            except np.linalg.LinAlgError:
-                return np.zeros(B, dtype=bool)
-        Linv = np.linalg.inv(L)                 # triangular with a positive diagonal
-        tr_inv = np.einsum("bij,bij->b", Linv, Linv)                     # tr G⁻¹
-        cest = np.sqrt(np.einsum("bij,bij->b", J, J) * tr_inv)           # ≥ s_max / s_min
-        fast = cest <= FAST_COND                                         # False for NaN
-        if ok is not None:
-            fast &= ok
-        if fast.all():
-            self.Ginv = np.swapaxes(Linv, 1, 2) @ Linv                    # G⁻¹ = L⁻ᵀ L⁻¹
-            self._inv_smin = np.sqrt(tr_inv)                             # ≥ 1 / s_min
-        elif fast.any():
-            Li = Linv[fast]
-            self.Ginv = np.swapaxes(Li, 1, 2) @ Li
-            self._inv_smin[fast] = np.sqrt(tr_inv[fast])
-        return fast
-
-    def inv_smin(self, above):
-        """1 / (smallest kept singular value): exact for SVD poses; for Cholesky poses
-        ``sqrt(tr G⁻¹)`` (at most ``sqrt(min(m, n))`` times it) where that is at most
-        ``above``, else the 8th-power trace estimate (an upper bound within a factor
-        ``min(m, n)^(1/16)``, nearly exact where that singular value stands apart; both to
-        the eps · cond² ≤ 1e-4 of the normal equations)."""
-        out = self._inv_smin.copy()
-        big = self.fast & (out > above)
-        if big.any():
-            sel = big[self.fast]
-            Gi = self.Ginv[sel]
-            lam = out[big] ** 2                                          # tr G⁻¹
-            M = Gi / lam[:, None, None]
-            with np.errstate(all="ignore"):
-                for p in (2, 4, 8):                  # λ_max(G⁻¹) ≤ tr(G⁻ᵖ)^(1/p)
-                    M = M @ M
-                    t = np.trace(M, axis1=1, axis2=2)
-                    lam *= t ** (1.0 / p)
-                    M /= t[:, None, None]
-            out[big] = np.sqrt(lam)
-        return out
-
-    def solve(self, R):
-        """``X`` (B, n, j) for right-hand sides ``R`` (B, m, j).  On the Cholesky poses one
-        step of iterative refinement takes the relative error from about eps · cond² to
-        (eps · cond²)² + eps · cond (≤ 1e-8 at ``FAST_COND``; the SVD's is eps · cond)."""
-        B, m, n = self.J.shape
-        X = np.zeros((B, n, R.shape[2]))
-        if self.fast.any():
-            allf = self.fast.all()
-            J = self.J if allf else self.J[self.fast]
-            Rf = R if allf else R[self.fast]
-            Jt = np.swapaxes(J, 1, 2)
-            Gi = self.Ginv
-            if self.wide:
-                Xf = Jt @ (Gi @ Rf)
-                Xf += Jt @ (Gi @ (Rf - J @ Xf))
-            else:
-                Xf = Gi @ (Jt @ Rf)
-                Xf += Gi @ (Jt @ (Rf - J @ Xf))
-            if allf:
-                return Xf
-            X[self.fast] = Xf
-        if self.slow.size:
-            X[self.slow] = np.einsum("bkn,bk,bmk,bmj->bnj", self.Vt, self.inv_s, self.U,
-                                     R[self.slow])
-        return X
-
-
 def _apply(mech, state, dv_scaled):
     """New state from a dimensionless step over all velocity coordinates."""
-    t = mech.tree
-    dv = dv_scaled.copy()
-    dv[:, t.length_cols] *= t.scale
     q, rot = state
-    q = q.copy()
-    rot = rot.copy()
-    for j in mech.joints:
-        d = dv[:, t.v_offset[j.index]:t.v_offset[j.index] + j.nv]
-        if j.kind == "S":
-            si = t.s_index[j.index]
-            _, rot[:, si] = j.update(None, rot[:, si], d)
-        else:
-            a = t.q_offset[j.index]
-            q[:, a:a + j.nq] += d
-    return q, rot
+    return mech.plan.apply(q, rot, dv_scaled)
 
 
-_BATCHED = ("link", "frame_a", "S", "r")
+def _ks_take(ks: KinematicState, idx) -> KinematicState:
+    """The kinematic state of batch elements ``idx`` (a copy)."""
+    return ks.take(idx)
 
 
-def _ks_take(ks, idx):
-    """The kinematic state of batch elements ``idx``."""
-    out = {k: ks[k][idx] for k in _BATCHED if k in ks}
-    out["A"] = [a[idx] for a in ks["A"]]
-    for k in ("carrier", "deps"):
-        if k in ks:
-            out[k] = ks[k]
-    return out
-
-
-def _ks_put(dst, idx, src, sub):
+def _ks_put(dst: KinematicState, idx, src: KinematicState, sub) -> None:
     """Store elements ``sub`` of ``src`` at positions ``idx`` of ``dst``."""
-    for k in _BATCHED:
-        if k in dst:
-            dst[k][idx] = src[k][sub]
-    for a, b in zip(dst["A"], src["A"]):
-        a[idx] = b[sub]
+    dst.put(idx, src, sub)
 
 
 def newton(mech, state, opts: SolverOptions, columns=None, rank=None, exact_cond=True):
@@ -299,79 +131,126 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None, exact_cond
     left NaN for poses whose condition estimate is at most :data:`FAST_COND` (their
     estimate is below any condition a caller acts on) and exact elsewhere.
 
+    With the default columns the same factorisation also gives the first-order
+    analogs (the Jacobian's input columns are extra right-hand sides): they are
+    returned as ``ks.first`` for the converged poses (NaN elsewhere).
+
     Returns ``(state, residual, iterations, condition, converged, ks)`` where
-    ``ks`` is the kinematic state of the returned poses.
+    ``ks`` is the :class:`KinematicState` of the returned poses.
     """
-    unknown = mech.unknown_columns() if columns is None else columns
+    plan = mech.plan
+    default = columns is None
+    unknown = plan.unknown if default else columns
     rank = _expected_rank(mech) if rank is None else rank
-    offset = _origin_offset(mech)                              # digits lost to the origin
+    nu = unknown.size
+    if default:
+        inp, cols, in_scale, u_scale = plan.input_v, plan.solve_cols, plan.input_cscale, \
+            plan.unknown_cscale
+    else:
+        inp, cols = np.zeros(0, dtype=int), unknown
+    ni = inp.size
+    offset = plan.offset                                       # digits lost to the origin
     floor, xtol = 1e-14 * offset, opts.xtol * offset
     noise = 1e-15 * offset                                     # rounding in the residual
-    q, rot = (a.copy() for a in state)
+    q, rot = state
     B = q.shape[0]
     its = np.zeros(B, dtype=int)
     done = np.zeros(B, dtype=bool)
     cond = np.ones(B)
-    ks_all = mech.kinematic_state((q, rot))
-    res = _norm(mech._scaled_residual(ks_all))
+    ks_all = plan.evaluate(q, rot)
+    q, rot = q.copy(), rot.copy()
+    res = _norm(plan.scaled_residual(ks_all.r))
     prev = np.full(B, np.inf)
-    if unknown.size == 0:                        # open chain driven in every joint
+    first_all = np.full((B, plan.nv, ni), np.nan) if default else None
+    last_step = np.full(B, np.nan)
+    if default and ni:
+        first_all[:, inp, np.arange(ni)] = 1.0
+    if nu == 0:                                  # open chain driven in every joint
         done[:] = True
+        if default:
+            first_all[:, unknown] = 0.0
+    act = np.nonzero(~done)[0]
     for _ in range(opts.maxiter):
-        act = np.nonzero(~done)[0]
         if act.size == 0:
             break
-        ks = ks_all if act.size == B else _ks_take(ks_all, act)     # read only
-        r = mech._scaled_residual(ks)
-        J = mech._scaled_jacobian(ks)[:, :, unknown]
-        ls = _LstSq(J, rank)
+        whole = act.size == B
+        S = ks_all.S if whole else ks_all.S[act]
+        r = plan.scaled_residual(ks_all.r if whole else ks_all.r[act])
+        Jc = plan.scaled_jacobian(S, cols)
+        ls = _LstSq(Jc[:, :, :nu] if ni else Jc, rank)
         cond[act] = ls.cond
         its[act] += 1
-        step_u = -ls.solve(r[:, :, None])[:, :, 0]
+        if ni:
+            rhs = np.empty(r.shape + (1 + ni,))
+            rhs[:, :, 0] = r
+            rhs[:, :, 1:] = Jc[:, :, nu:] / in_scale
+            X = ls.solve(rhs)
+            step_u = -X[:, :, 0]
+        else:
+            step_u = -ls.solve(r[:, :, None])[:, :, 0]
         big = np.max(np.abs(step_u), axis=1)
+        ra = res if whole else res[act]
         # converged: the residual at rounding level (the coordinates are then as accurate
         # as the condition number allows), or steps of at most xtol that no longer
         # reduce the residual
-        stalled = (its[act] > 1) & (res[act] > 0.5 * prev[act])
+        stalled = (its[act] > 1) & (ra > 0.5 * (prev if whole else prev[act]))
         # near a singular configuration a residual at rounding level still leaves a
         # coordinate error of residual / σ_min: converged only once the step itself is
         # what rounding in the residual explains (noise / σ_min), or below xtol
         tol_step = np.maximum(xtol, noise * ls.inv_smin(xtol / noise))
-        conv = (big <= tol_step) & ((res[act] <= floor) | stalled)
-        prev[act] = res[act]
-        done[act[conv]] = True
-        move = np.nonzero(~conv)[0]
-        if move.size == 0:
-            break
-        act, step_u, big = act[move], step_u[move], big[move]
+        conv = (big <= tol_step) & ((ra <= floor) | stalled)
+        prev[act] = ra
+        if conv.any():
+            ca = act[conv]
+            done[ca] = True
+            last_step[ca] = big[conv]
+            if ni:
+                first_all[ca[:, None], unknown] = -X[conv, :, 1:] * u_scale[:, None]
+            if conv.all():
+                break
+            move = np.nonzero(~conv)[0]
+            act, step_u, big = act[move], step_u[move], big[move]
         step_u *= np.minimum(1.0, opts.max_step / np.maximum(big, 1e-300))[:, None]
-        step = np.zeros((act.size, mech.tree.nv))
+        step = np.zeros((act.size, plan.nv))
         step[:, unknown] = step_u
         # backtracking: accept the longest of 1, 1/2, 1/4 ... that does not raise the residual
-        r0 = res[act]
+        whole = act.size == B
+        r0 = res if whole else res[act]
+        q0, rot0 = (q, rot) if whole else (q[act], rot[act])
+        trial_q, trial_rot = plan.apply(q0, rot0, step)
+        ks_t = plan.evaluate(trial_q, trial_rot)
+        rn = _norm(plan.scaled_residual(ks_t.r))
+        good = (rn <= r0 * (1 + 1e-9)) | (rn < floor)
+        if whole and good.all():                 # the full step everywhere: no gather
+            q, rot, res, ks_all = trial_q, trial_rot, rn, ks_t
+            continue
         alpha = np.ones(act.size)
         pending = np.ones(act.size, dtype=bool)
-        q0, rot0 = q[act], rot[act]
+        idx = np.arange(act.size)
         for h in range(8):
-            idx = np.nonzero(pending)[0]
-            trial = _apply(mech, (q0[idx], rot0[idx]), step[idx] * alpha[idx, None])
-            ks_t = mech.kinematic_state(trial)
-            rn = _norm(mech._scaled_residual(ks_t))
-            good = (rn <= r0[idx] * (1 + 1e-9)) | (rn < floor) | (h == 7)
+            if h:
+                idx = np.nonzero(pending)[0]
+                trial_q, trial_rot = plan.apply(q0[idx], rot0[idx], step[idx] * alpha[idx, None])
+                ks_t = plan.evaluate(trial_q, trial_rot)
+                rn = _norm(plan.scaled_residual(ks_t.r))
+                good = (rn <= r0[idx] * (1 + 1e-9)) | (rn < floor) | (h == 7)
             g = act[idx[good]]
-            q[g], rot[g] = trial[0][good], trial[1][good]
+            q[g], rot[g] = trial_q[good], trial_rot[good]
             res[g] = rn[good]
-            _ks_put(ks_all, g, ks_t, good)
+            ks_all.put(g, ks_t, good)
             pending[idx[good]] = False
             alpha[idx[~good]] *= 0.5
             if not pending.any():
                 break
+        act = np.nonzero(~done)[0]
     # the condition at the returned state: not converged, or a step by Cholesky
     left = np.nonzero(~done | (np.isnan(cond) & exact_cond))[0]
     if left.size:
-        ks = ks_all if left.size == B else _ks_take(ks_all, left)
-        J = mech._scaled_jacobian(ks)[:, :, unknown]
+        S = ks_all.S if left.size == B else ks_all.S[left]
+        J = plan.scaled_jacobian(S, unknown)
         cond[left] = _condition(J, rank) if exact_cond else _LstSq(J, rank).cond
+    ks_all.first = first_all
+    ks_all.step = last_step if default else None
     return (q, rot), res, its, cond, done, ks_all
 
 
@@ -380,8 +259,8 @@ def _exact_condition(mech, ks, cond):
     from the kinematic state ``ks`` of the same poses."""
     idx = np.nonzero(np.isnan(cond))[0]
     if idx.size:
-        sub = ks if idx.size == cond.size else _ks_take(ks, idx)
-        J = mech._scaled_jacobian(sub)[:, :, mech.unknown_columns()]
+        S = ks.S if idx.size == cond.size else ks.S[idx]
+        J = mech.plan.scaled_jacobian(S, mech.unknown_columns())
         cond[idx] = _condition(J, _expected_rank(mech))
     return cond
 
@@ -391,11 +270,10 @@ def predict(mech, state, first, x_from, x_new):
     (B, ni) moved along their first analogs ``first`` (B, nv, ni) to the inputs ``x_new``
     (B, ni).  Returns the predicted state with the inputs set, and the dimensionless
     step of every velocity coordinate ``(B, nv)``."""
-    t = mech.tree
-    dv = np.einsum("bci,bi->bc", first, x_new - x_from)
-    dv[:, t.length_cols] /= t.scale
-    q, rot = _apply(mech, state, dv)
-    q[:, mech.input_q_columns()] = x_new
+    plan = mech.plan
+    dv = np.einsum("bci,bi->bc", first, x_new - x_from) / plan.col_scale
+    q, rot = plan.apply(state[0], state[1], dv)
+    q[:, plan.input_q] = x_new
     return (q, rot), dv
 
 
@@ -403,15 +281,21 @@ def _take_pose(pose: Pose, idx) -> Pose:
     """Poses ``idx`` of a batch (with their kinematic state)."""
     idx = np.asarray(idx)
     return Pose(pose.mechanism, pose.inputs[idx], pose.q[idx], pose.rot[idx],
-                pose.residual[idx], pose.iterations[idx], pose.condition[idx],
-                pose.status[idx], _ks=_ks_take(pose.kinematics(), idx))
+                pose.residual[idx], pose.iterations[idx], pose._raw_condition[idx],
+                pose.status[idx], _ks=None if pose._ks is None else pose._ks.take(idx),
+                _cond_pending=pose._cond_pending)
 
 
-def _cat_poses(poses) -> Pose:
-    """One batch of the poses of a list of batches (with their kinematic states)."""
+def _cat_poses(poses, keep: bool = True) -> Pose:
+    """One batch of the poses of a list of batches (with their kinematic states when
+    ``keep`` and every part has one)."""
     cat = {f: np.concatenate([getattr(p, f) for p in poses])
-           for f in ("inputs", "q", "rot", "residual", "iterations", "condition", "status")}
-    return Pose(poses[0].mechanism, **cat, _ks=_ks_cat([p.kinematics() for p in poses]))
+           for f in ("inputs", "q", "rot", "residual", "iterations", "status")}
+    cat["condition"] = np.concatenate([p._raw_condition for p in poses])
+    kept = keep and all(p._ks is not None for p in poses)
+    return Pose(poses[0].mechanism, **cat,
+                _ks=KinematicState.concatenate([p._ks for p in poses]) if kept else None,
+                _cond_pending=any(p._cond_pending for p in poses))
 
 
 def _norm(r):
@@ -463,8 +347,7 @@ def _inputs_array(mech, inputs, name: str = "inputs"):
 def _origin_offset(mech) -> float:
     """``1 + |centre| / scale``: how many times the rounding of a pose's coordinates grows
     because the mechanism sits away from the world origin (tolerances scale with it)."""
-    t = mech.tree
-    return 1.0 + float(np.linalg.norm(t.centre)) / t.scale
+    return mech.plan.offset
 
 
 def _status(mech, res, cond, conv, opts):
@@ -487,8 +370,7 @@ def project(mech, state, opts: SolverOptions | None = None):
 
 def _input_scale(mech) -> np.ndarray:
     """Per input: 1 for angles, the length scale for lengths (dimensionless inputs)."""
-    cols = mech.input_columns()
-    return np.where(np.isin(cols, mech.tree.length_cols), mech.tree.scale, 1.0)
+    return mech.plan.input_scale
 
 
 #: longest input path (dimensionless: rad, or length / scale) a continuation follows
@@ -540,9 +422,11 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
                              "continuation=False")
     q, rot = start.q.copy(), start.rot.copy()
     x_cur = x_from.copy()
-    res, cond = start.residual.astype(float).copy(), start.condition.astype(float).copy()
+    res, cond = start.residual.astype(float).copy(), start._raw_condition.astype(float).copy()
     its = np.zeros(B, dtype=int)                              # this path's iterations only
-    ks_all = _ks_take(start.kinematics(), np.arange(B))       # a copy: updated in place
+    ks_all = start.kinematics().take(np.arange(B))            # a copy: updated in place
+    if ks_all.first is None:
+        ks_all.first = np.full((B, t.nv, x_from.shape[1]), np.nan)
     first = np.zeros((B, t.nv, x_from.shape[1]))
     have = np.zeros(B, dtype=bool)
     if tangent is not None:
@@ -552,15 +436,19 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
     lam, h = np.zeros(B), np.ones(B)
     stop = np.zeros(B, dtype=int)
     active = span_s > 0
-    step_opts = opts.replace(maxiter=min(opts.maxiter, 8))
-    from .kinematics import analogs   # local: kinematics imports solver helpers
+    step_opts = opts._corrector()
     while active.any():
         a = np.nonzero(active)[0]
         nf = a[need[a]]
         if nf.size:
-            cur = Pose(mech, x_cur[nf], q[nf], rot[nf], res[nf], its[nf], cond[nf],
-                       np.zeros(nf.size, int), _ks=_ks_take(ks_all, nf))
-            new = analogs(mech, cur, second=False)[0]
+            # the analogs the corrector computed with its last step, else computed here
+            new = ks_all.first[nf]
+            miss = np.nonzero(np.isnan(new).any(axis=(1, 2)))[0]
+            if miss.size:
+                m_ = nf[miss]
+                cur = Pose(mech, x_cur[m_], q[m_], rot[m_], res[m_], its[m_], cond[m_],
+                           np.zeros(m_.size, int), _ks=ks_all.take(m_))
+                new[miss] = analogs(mech, cur, second=False)[0]
             keep = have[nf] & (cond[nf] > TANGENT_COND)
             first[nf] = np.where(keep[:, None, None], first[nf], new)
             have[nf] = True
@@ -577,13 +465,17 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
         (pq, prot), dv = predict(mech, (q[a], rot[a]), first[a], x_cur[a], xt)
         big = np.max(np.abs(dv), axis=1)
         st, r, it, c, conv, ks = newton(mech, (pq, prot), step_opts, exact_cond=False)
-        jump = np.max(np.abs(_coord_distance(mech, st, (pq, prot))), axis=1)
+        jump = np.max(np.abs(mech.plan.distance(st, (pq, prot))), axis=1)
         ok = conv & (r <= opts.rtol) & (jump <= 0.5 * big)
         g, sub = a[ok], np.nonzero(ok)[0]
-        if g.size:
+        if g.size == B:                          # every member moved: take the arrays
+            q, rot, x_cur, res, cond, its = st[0], st[1], xt, r, c, its + it
+            ks_all = ks
+        elif g.size:
             q[g], rot[g], x_cur[g] = st[0][sub], st[1][sub], xt[sub]
             res[g], cond[g], its[g] = r[sub], c[sub], its[g] + it[sub]
-            _ks_put(ks_all, g, ks, sub)
+            ks_all.put(g, ks, sub)
+        if g.size:
             lam[g] = np.where(final[sub], 1.0, lam[g] + hh[sub])
             h[g] = 2.0 * hh[sub]
             need[g] = True
@@ -596,8 +488,9 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
                 d, dsub = bad[dead], bsub[dead]
                 stop[d] = np.where(conv[dsub] & (r[dsub] > opts.rtol), 3, 4)
                 active[d] = False
-    _exact_condition(mech, ks_all, cond)
-    pose = Pose(mech, x_cur, q, rot, res, its, cond, np.zeros(B, int), _ks=ks_all)
+    # conditions left NaN (estimate ≤ FAST_COND) are computed when the pose is asked
+    pose = Pose(mech, x_cur, q, rot, res, its, cond, np.zeros(B, int), _ks=ks_all,
+                _cond_pending=True)
     return pose, stop, first
 
 
@@ -637,12 +530,36 @@ def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions) -> Pose:
     if q.shape[0] not in (1, B):
         raise MechanismError(f"guess: has {q.shape[0]} poses, expected 1 or {B}")
     n = q.shape[0]
+    if guess is not None and _settled(mech, guess, opts):
+        # a pose the solver stopped at with its residual at rounding level and a step
+        # below xtol: correcting it again would converge at once without moving it
+        pose = Pose(mech, x0, guess.q, guess.rot, guess.residual, np.zeros(n, int),
+                    guess._raw_condition, np.zeros(n, int), _ks=guess._ks,
+                    _cond_pending=guess._cond_pending)
+        return _take_pose(pose, np.zeros(B, dtype=int)) if n == 1 and B > 1 else pose
     q = q.copy()
     q[:, mech.input_q_columns()] = x0
     st, res, its, cond, conv, ks = newton(mech, (q, rot.copy()), opts, exact_cond=False)
     pose = Pose(mech, x0, st[0], st[1], res, its, cond, _status(mech, res, cond, conv, opts),
-                _ks=ks)
+                _ks=ks, _cond_pending=True)
     return _take_pose(pose, np.zeros(B, dtype=int)) if n == 1 and B > 1 else pose
+
+
+def _settled(mech, guess: Pose, opts: SolverOptions) -> bool:
+    """True when every member of ``guess`` is a pose the solver stopped at (its kept
+    state holds the step and analogs computed there) with a residual at rounding level
+    and a Newton step below ``xtol``: Newton from it converges at its first iteration
+    without moving, so the start needs no correction."""
+    ks = guess._ks
+    if ks is None or ks.step is None or ks.first is None or ks.S is None:
+        return False
+    plan = mech.plan
+    off = plan.offset
+    with np.errstate(invalid="ignore"):
+        return bool(np.all(ks.step <= opts.xtol * off) and
+                    np.all(guess.residual <= 1e-14 * off) and
+                    not np.isnan(ks.first).any() and
+                    np.array_equal(guess.q[:, plan.input_q], guess.inputs))
 
 
 def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | None = None,
@@ -683,6 +600,8 @@ def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | N
         pose = _solve_chunked(mech, x, guess, opts, continuation)
     else:
         pose = _solve_batch(mech, x, scalar, guess, opts, continuation)
+    if B > KEEP_STATE:
+        pose._ks = None                             # recomputed if asked: memory per pose
     bad = pose.status >= 2
     if raise_on_failure and bad.any():
         i = np.nonzero(bad)[0]
@@ -713,7 +632,9 @@ def _solve_chunked(mech, x, guess, opts, continuation) -> Pose:
         sl = np.arange(a, min(a + CHUNK, B))
         g = guess if guess is None or not isinstance(guess, Pose) or len(guess) == 1 \
             else _take_pose(guess, sl)
-        parts.append(_solve_batch(mech, x[sl], False, g, opts, continuation))
+        part = _solve_batch(mech, x[sl], False, g, opts, continuation)
+        part._ks = None                             # kept only for small batches
+        parts.append(part)
     pose = _cat_poses(parts)
     if parts[0].reached is not None:
         pose.reached = np.concatenate([p.reached for p in parts])
@@ -726,12 +647,14 @@ def _solve_batch(mech, x, scalar, guess, opts, continuation) -> Pose:
     start = _start_pose(mech, guess, B, opts)
     if continuation and mech.tree.chords:         # an open chain has no branch to follow
         pose, stop, _ = _continue(mech, start, x, opts)
-        res, cond = pose.residual, pose.condition
+        res, cond = pose.residual, pose._raw_condition
+        if opts.cond_limit < FAST_COND:          # the flags need the exact figures
+            _exact_condition(mech, pose.kinematics(), cond)
         status = _status(mech, res, cond, np.ones(B, bool), opts)
         status = np.where(start.status >= 2, start.status, np.where(stop > 0, stop, status))
         reached = pose.inputs
         pose = Pose(mech, x, pose.q, pose.rot, res, pose.iterations, cond, status, scalar,
-                    _ks=pose._ks, reached=reached)
+                    _ks=pose._ks, reached=reached, _cond_pending=True)
     else:
         q, rot = start.q.copy(), start.rot.copy()
         q[:, mech.input_q_columns()] = x
@@ -789,9 +712,10 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
         stops.append(None)
         cur = nxt
     n = len(poses)
-    pose = _cat_poses(poses)
+    pose = _cat_poses(poses, keep=return_pose and n <= KEEP_STATE)
     reached, pose.inputs = pose.inputs, x[:n].copy()
-    pose.status = _status(mech, pose.residual, pose.condition, np.ones(n, bool), opts)
+    cond = pose.condition if opts.cond_limit < FAST_COND else pose._raw_condition
+    pose.status = _status(mech, pose.residual, cond, np.ones(n, bool), opts)
     status = [s if s is not None else STATUS[int(c)] for s, c in zip(stops, pose.status)]
     df = pose.table()
     df["status"] = status
@@ -806,29 +730,11 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
     return df
 
 
-def _ks_cat(kss):
+def _ks_cat(kss) -> KinematicState:
     """Concatenate kinematic states along the batch."""
-    out = {k: np.concatenate([ks[k] for ks in kss]) for k in _BATCHED if k in kss[0]}
-    out["A"] = [np.concatenate(a) for a in zip(*(ks["A"] for ks in kss))]
-    for k in ("carrier", "deps"):
-        if k in kss[0]:
-            out[k] = kss[0][k]
-    return out
+    return KinematicState.concatenate(kss)
 
 
 def _coord_distance(mech, a, b):
     """Dimensionless distance per velocity coordinate between two states (B, nv)."""
-    t = mech.tree
-    out = np.zeros((a[0].shape[0], t.nv))
-    for j in mech.joints:
-        sl = slice(t.v_offset[j.index], t.v_offset[j.index] + j.nv)
-        if j.kind == "S":
-            si = t.s_index[j.index]
-            rel = a[1][:, si] @ np.swapaxes(b[1][:, si], -1, -2)
-            out[:, sl] = _log_so3(rel)
-        else:
-            qa = a[0][:, t.q_offset[j.index]:t.q_offset[j.index] + j.nq]
-            qb = b[0][:, t.q_offset[j.index]:t.q_offset[j.index] + j.nq]
-            out[:, sl] = qa - qb
-    out[:, t.length_cols] /= t.scale
-    return out
+    return mech.plan.distance(a, b)

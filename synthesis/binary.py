@@ -1,5 +1,6 @@
-"""Binary links of two screw-type joints (R, H, C; P in :mod:`synthesis.prismatic`)
-through finite positions: the :class:`BinaryLink` result and the shared algebra of
+"""Binary links of two joints through finite positions: the :class:`BinaryLink` result
+(screw-type joints R, H, C, P, and the spherical S and universal U joints of
+:mod:`synthesis.spherical` and :mod:`synthesis.hooke`) and the shared algebra of
 :mod:`synthesis.helical` and :mod:`synthesis.cylindric` (after Tsai & Roth
 1972, "Design of dyads with helical, cylindric, spherical, revolute and prismatic
 joints", Mech. Mach. Theory 7).
@@ -64,6 +65,33 @@ class BinaryLink:
     parameters : dict
         The free parameters the link was computed for (name → value, units in the
         function's documentation); empty when the solution set is finite.
+    cross_axis : numpy.ndarray, shape (3,), optional
+        Universal joint (type letter ``"U"``, always the fixed joint here): the unit
+        direction of its second (cross) axis in position 1; it passes through the
+        joint's centre, is perpendicular to the first axis and turns with the first
+        angle.  None for other joints.
+    cross_angles : numpy.ndarray, shape (n,), optional
+        Universal joint: the rotations about the cross axis at positions 1…n (rad, 0 at
+        position 1); the rotations about the first axis are ``fixed_angles``.
+    sphere_rotations : numpy.ndarray, shape (n, 3, 3), optional
+        Spherical joint (type letter ``"S"``): its relative rotation at positions 1…n
+        (the identity at position 1), about its centre: for a fixed S the link's
+        rotation, for a moving S the body's rotation relative to the link.
+
+    Spherical and universal joints
+    ------------------------------
+    An ``"S"`` joint is stored as a :class:`Line` whose point is the sphere's centre;
+    its direction is immaterial (the other joint's direction is copied there), its
+    pitch NaN, its angles and slides 0; its motion is ``sphere_rotations``.  A ``"U"``
+    joint is stored as its first axis (point: the joint's centre, not a canonical
+    foot), pitch 0, ``fixed_angles`` about the first axis and ``cross_angles`` about
+    ``cross_axis``.  Forward kinematics: fixed S ``x ↦ S_j (x − c) + c``; fixed U the
+    rotation about the centre ``Rot(a, α_j) Rot(b, γ_j)`` (b the cross axis in
+    position 1); moving S ``x ↦ S_j (x − c) + c`` applied before the fixed joint.
+    :meth:`moving_elements` gives the moving joint's axis (or centre) and the cross
+    axis at every position, and :meth:`engine_chain` the link as revolute, helical,
+    cylindrical and prismatic joints (an S as three revolutes along x, y, z through
+    its centre, a U as its two axes) for :func:`synthesis.verify.verify_open_chains`.
     """
 
     types: str
@@ -77,12 +105,18 @@ class BinaryLink:
     moving_slides: np.ndarray
     residual: float
     parameters: dict = field(default_factory=dict)
+    cross_axis: np.ndarray | None = None
+    cross_angles: np.ndarray | None = None
+    sphere_rotations: np.ndarray | None = None
 
     def pose(self, fixed_angle: float, fixed_slide: float, moving_angle: float,
              moving_slide: float) -> np.ndarray:
         """Body pose ``(4, 4)`` relative to position 1 at the given joint values (rad,
         length); for R and H joints the slide argument is ignored (0, resp. pitch·angle),
-        for P joints the angle (0)."""
+        for P joints the angle (0).  Links with an S or U joint: use :meth:`poses`."""
+        if "S" in self.types or "U" in self.types:
+            raise SynthesisError(f"types: pose() takes the joint values of screw joints (R, H, "
+                                 f"C, P); a {self.types} link has S/U joints: use poses()")
         q = [number(v, n) for v, n in ((fixed_angle, "fixed_angle"), (fixed_slide, "fixed_slide"),
                                         (moving_angle, "moving_angle"), (moving_slide, "moving_slide"))]
         a = _slide(self.types[0], self.fixed_pitch, q[0], q[1])
@@ -94,28 +128,112 @@ class BinaryLink:
 
     def poses(self) -> np.ndarray:
         """Body poses ``(n, 4, 4)`` at the link's own joint values (one per position)."""
-        G = _screw_matrix(self.fixed_axis.direction, self.fixed_axis.point,
-                          self.fixed_angles, self.fixed_slides)
-        W = _screw_matrix(self.moving_axis.direction, self.moving_axis.point,
-                          self.moving_angles, self.moving_slides)
-        return G @ W
+        return self._fixed_motion() @ self._moving_motion()
+
+    def _fixed_motion(self) -> np.ndarray:
+        """The link's poses ``(n, 4, 4)`` (the fixed joint's motion)."""
+        ax = self.fixed_axis
+        if self.types[0] == "S":
+            return _about(self.sphere_rotations, ax.point)
+        if self.types[0] == "U":
+            R = _rot(ax.direction, self.fixed_angles) @ _rot(self.cross_axis, self.cross_angles)
+            return _about(R, ax.point)
+        return _screw_matrix(ax.direction, ax.point, self.fixed_angles, self.fixed_slides)
+
+    def _moving_motion(self) -> np.ndarray:
+        """The body's poses relative to the link ``(n, 4, 4)`` (in position-1 coordinates)."""
+        ax = self.moving_axis
+        if self.types[1] == "S":
+            return _about(self.sphere_rotations, ax.point)
+        return _screw_matrix(ax.direction, ax.point, self.moving_angles, self.moving_slides)
+
+    def moving_elements(self) -> dict:
+        """The moving joint's element and the link's other carried elements at every
+        position (world coordinates).
+
+        Returns
+        -------
+        dict with
+            ``"directions"`` (n, 3): the moving joint's axis direction (for an S joint
+            the direction stored, immaterial); ``"points"`` (n, 3): its point (the sphere
+            centre for S); ``"link"`` (n, 4, 4): the link's poses; and for a fixed U
+            ``"cross_directions"`` (n, 3): the cross axis (through the centre).
+        """
+        Lk = self._fixed_motion()
+        ax = self.moving_axis
+        out = {"directions": Lk[:, :3, :3] @ ax.direction,
+               "points": Lk[:, :3, :3] @ ax.point + Lk[:, :3, 3], "link": Lk}
+        if self.types[0] == "U":
+            out["cross_directions"] = Lk[:, :3, :3] @ self.cross_axis
+        return out
+
+    def engine_chain(self):
+        """``(types, lines, pitches, joint_values)`` of the link as screw joints only (R,
+        H, C, P): an S joint becomes three revolutes along x, y, z through its centre
+        driven by the XYZ angles of its rotations (``S_j = Rx(a) Ry(b) Rz(c)``), a U its
+        two axes (first, then cross); input of
+        :func:`synthesis.verify.verify_open_chains`."""
+        from scipy.spatial.transform import Rotation
+
+        types, lines, pitches, cols = "", [], [], []
+        for k, kind in enumerate(self.types):
+            ax = self.fixed_axis if k == 0 else self.moving_axis
+            if kind == "S":
+                e = Rotation.from_matrix(self.sphere_rotations).as_euler("XYZ")
+                for i in range(3):
+                    types += "R"
+                    lines.append(Line._exact(np.eye(3)[i], ax.point.copy()))
+                    pitches.append(0.0)
+                    cols.append(e[:, i])
+            elif kind == "U":
+                types += "RR"
+                lines += [ax, Line._exact(np.asarray(self.cross_axis, float), ax.point.copy())]
+                pitches += [0.0, 0.0]
+                cols += [self.fixed_angles, self.cross_angles]
+            else:
+                ang = self.fixed_angles if k == 0 else self.moving_angles
+                sl = self.fixed_slides if k == 0 else self.moving_slides
+                p = self.fixed_pitch if k == 0 else self.moving_pitch
+                types += kind
+                lines.append(ax)
+                pitches.append(0.0 if kind in "CP" else float(p))
+                cols += [sl] if kind == "P" else [ang, sl] if kind == "C" else [ang]
+        return types, lines, pitches, np.stack(cols, 1)
 
     def joint_values(self) -> np.ndarray:
         """Driven coordinates per position ``(n, k)`` in the engine's order (angle per R/H
         joint, angle and slide per C joint, slide per P joint): the input of
-        :func:`synthesis.verify.verify_links`."""
+        :func:`synthesis.verify.verify_links`.  A U joint gives two angle columns (first
+        axis, cross axis); an S joint none (its motion is ``sphere_rotations``)."""
         cols = []
         for kind, ang, sl in ((self.types[0], self.fixed_angles, self.fixed_slides),
                               (self.types[1], self.moving_angles, self.moving_slides)):
-            cols += [sl] if kind == "P" else [ang, sl] if kind == "C" else [ang]
+            if kind == "S":
+                continue
+            cols += [sl] if kind == "P" else [ang, sl] if kind == "C" else \
+                [ang, self.cross_angles] if kind == "U" else [ang]
         return np.stack(cols, 1)
 
     def chain(self):
-        """``(types, lines, pitches, joint_values)`` for :func:`synthesis.verify.verify_links`."""
+        """``(types, lines, pitches, joint_values)`` for :func:`synthesis.verify.verify_links`
+        (R, H, C, P joints); for a link with an S or U joint the expanded
+        :meth:`engine_chain` (for :func:`synthesis.verify.verify_open_chains`)."""
+        if "S" in self.types or "U" in self.types:
+            return self.engine_chain()
         return (self.types, [self.fixed_axis, self.moving_axis],
                 [0.0 if t in "CP" else p for t, p in zip(self.types, (self.fixed_pitch,
                                                                        self.moving_pitch))],
                 self.joint_values())
+
+
+def _about(R, c) -> np.ndarray:
+    """Rotations ``R (n, 3, 3)`` about the point ``c (3,)`` as 4x4 transforms."""
+    R = np.asarray(R, float)
+    T = np.zeros(R.shape[:-2] + (4, 4))
+    T[..., :3, :3] = R
+    T[..., :3, 3] = c - R @ c
+    T[..., 3, 3] = 1.0
+    return T
 
 
 def _slide(kind, pitch, angle, slide):
@@ -351,11 +469,11 @@ def _batched_lm(F, z0, iters: int = 80, h: float = 1e-7):
             break
         ia = np.flatnonzero(active)
         za, fa = z[ia], f[ia]
-        J = np.empty(fa.shape + (k,))
-        for i in range(k):
-            d = np.zeros(k)
-            d[i] = h
-            J[..., i] = (F(za + d, ia) - F(za - d, ia)) / (2 * h)
+        # all 2k central-difference evaluations in one batched call (rows are independent)
+        D = np.concatenate([h * eye, -h * eye])                    # (2k, k)
+        Fd = F((za[None] + D[:, None]).reshape(-1, k), np.tile(ia, 2 * k))
+        Fd = Fd.reshape(2, k, len(ia), -1)
+        J = np.moveaxis((Fd[0] - Fd[1]) / (2 * h), 0, -1)          # (M, r, k)
         JtJ = np.swapaxes(J, 1, 2) @ J
         Jtf = np.einsum("nri,nr->ni", J, fa)
         diag = np.einsum("nii->ni", JtJ)

@@ -1,5 +1,5 @@
-"""Binary links with a prismatic joint and a revolute or cylindrical one (PR, RP, PC, CP)
-through three positions.  PR and RP are the limit of the helical links HR, RH as the helical pitch goes to infinity
+"""Binary links with a prismatic joint and a revolute, helical or cylindrical one (PR, RP,
+PC, CP through three positions; PR, RP, PH, HP through two).  PR and RP are the limit of the helical links HR, RH as the helical pitch goes to infinity
 (the joint's rotation, slide / pitch, goes to zero).
 
 A P joint adds no rotation, so the relative rotations of the positions must all turn
@@ -18,6 +18,23 @@ RP (rotation θ_j about the fixed line (g, c_g), then slide b_j along w carried 
 PC, CP: the cylinder's axis direction is the rotations' common one; the slide direction
 of the P joint is the free choice (two parameters), after which six linear equations
 give the cylinder's axis point and the four slides.
+
+Two positions (PR, RP, PH, HP): the rotating joint's axis direction w is S₁₂'s axis and
+its angle φ S₁₂'s angle (in (0, π]); the slide direction d (unit vector: the two free
+parameters, ``fixed_direction`` for PR/PH, ``moving_direction`` in position 1 for RP/HP)
+then leaves three linear equations for the slide and the axis point:
+``t = a d + (I − R) c_w + p φ w`` (PR, PH; p the pitch, 0 for R) and
+``t = b R d + (I − R) c_g + p θ g`` (RP, HP).  They are singular when d ⊥ w (the slide
+could not supply the translation along the axis).
+
+==========  =========  ==================================================
+link        positions  free parameters
+==========  =========  ==================================================
+PR, RP      3          none (positions turned about one direction only)
+PR, RP      2          ``fixed_direction`` / ``moving_direction`` (2)
+PH, HP      2          ``fixed_direction`` / ``moving_direction`` (2), pitch given
+PC, CP      3          ``fixed_direction`` / ``moving_direction`` (2)
+==========  =========  ==================================================
 """
 from __future__ import annotations
 
@@ -26,10 +43,10 @@ import numpy as np
 from .binary import BinaryLink, _signed_angle, _task
 from .errors import SynthesisError
 from .screw import Line
-from .validate import screw as _screw, unit
+from .validate import number, screw as _screw, unit
 from .verify import pose_errors
 
-__all__ = ["pr_links", "rp_links", "pc_links", "cp_links"]
+__all__ = ["pr_links", "rp_links", "pc_links", "cp_links", "ph_links", "hp_links"]
 
 
 def _common_axis(task, name):
@@ -115,14 +132,19 @@ def _link(screws, kind, name):
     return [link]
 
 
-def pr_links(s12, s13) -> list[BinaryLink]:
+def pr_links(s12, s13=None, *, fixed_direction=None) -> list[BinaryLink]:
     """The PR link (prismatic joint in the ground, revolute in the body) through three
-    positions whose relative rotations share one axis direction.
+    positions whose relative rotations share one axis direction, or through two
+    positions for a chosen slide direction.
 
     Parameters
     ----------
     s12, s13 : Screw
-        Displacements from position 1 to positions 2 and 3.
+        Displacements from position 1 to positions 2 and 3; ``s13`` None for two
+        positions.
+    fixed_direction : array_like (3,), optional
+        Two positions only (required then): the unit slide direction in the ground, the
+        two free parameters (not perpendicular to S₁₂'s axis).
 
     Returns
     -------
@@ -134,19 +156,30 @@ def pr_links(s12, s13) -> list[BinaryLink]:
     SynthesisError
         Bad input (named); coincident positions; relative rotations about different
         directions (no PR link); pure-translation or half-turn relative screws; a
-        planar motion (slide direction not determined).
+        planar motion (slide direction not determined).  Two positions: S₁₂ a pure
+        translation, or a slide direction perpendicular to its axis.
     """
+    if s13 is None:
+        return _two(s12, "PR", 0.0, fixed_direction, "fixed_direction", none="s13")
+    if fixed_direction is not None:
+        raise SynthesisError("fixed_direction: only for two positions (s13 None); through three "
+                             "the PR link is unique")
     return _link([_screw(s12, "s12"), _screw(s13, "s13")], "PR", "s12, s13")
 
 
-def rp_links(s12, s13) -> list[BinaryLink]:
+def rp_links(s12, s13=None, *, moving_direction=None) -> list[BinaryLink]:
     """The RP link (revolute joint in the ground, prismatic in the body) through three
-    positions whose relative rotations share one axis direction.
+    positions whose relative rotations share one axis direction, or through two
+    positions for a chosen slide direction.
 
     Parameters
     ----------
     s12, s13 : Screw
-        Displacements from position 1 to positions 2 and 3.
+        Displacements from position 1 to positions 2 and 3; ``s13`` None for two
+        positions.
+    moving_direction : array_like (3,), optional
+        Two positions only (required then): the unit slide direction in the body in
+        position 1, the two free parameters.
 
     Returns
     -------
@@ -158,6 +191,11 @@ def rp_links(s12, s13) -> list[BinaryLink]:
     SynthesisError
         As :func:`pr_links`.
     """
+    if s13 is None:
+        return _two(s12, "RP", 0.0, moving_direction, "moving_direction", none="s13")
+    if moving_direction is not None:
+        raise SynthesisError("moving_direction: only for two positions (s13 None); through "
+                             "three the RP link is unique")
     return _link([_screw(s12, "s12"), _screw(s13, "s13")], "RP", "s12, s13")
 
 
@@ -259,3 +297,104 @@ def cp_links(s12, s13, moving_direction) -> list[BinaryLink]:
         As :func:`pc_links`.
     """
     return _cyl(s12, s13, "CP", moving_direction, "moving_direction")
+
+
+def _two(s12, kind, pitch, direction, dname, none=None):
+    """PR, RP, PH, HP through two positions for a slide direction (user's units)."""
+    sc = _screw(s12, "s12")
+    if direction is None:
+        pre = f"{none}: None means two positions, which need " if none else ""
+        raise SynthesisError(f"{pre}{dname}: required (the slide direction, a unit 3-vector: "
+                             "the two free parameters through two positions)")
+    d = unit(direction, dname)
+    task = _task([sc], "s12", (2,))
+    if not sc.angle > 1e-6:
+        raise SynthesisError(f"s12: (nearly) a pure translation (rotation {sc.angle:.1e} rad): "
+                             f"the {kind[0] if kind[0] != 'P' else kind[1]} joint's axis is not "
+                             "determined")
+    w, phi = sc.axis, sc.angle
+    R, t = task.R[0], task.t[0]
+    pn = pitch / task.L
+    e1 = np.cross(w, [1.0, 0, 0] if abs(w[0]) < 0.9 else [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(w, e1)
+    if abs(d @ w) < 1e-9:
+        raise SynthesisError(f"{dname}: degenerate: perpendicular to S_12's axis, so the slide "
+                             "cannot supply the translation along it")
+    first = kind[0] == "P"
+    A = np.stack([d if first else R @ d, (np.eye(3) - R) @ e1, (np.eye(3) - R) @ e2], 1)
+    x = np.linalg.solve(A, t - pn * phi * w)
+    c = x[1] * e1 + x[2] * e2
+    L, cen = task.L, task.c
+    rot = Line(w, c * L + cen).canonical()
+    z = np.zeros(2)
+    sl = np.r_[0.0, x[0] * L]
+    ang = np.r_[0.0, phi]
+    p_user = float(pitch)
+    rkind = "R" if pitch == 0 else "H"
+    if first:
+        pri = Line(d, rot.point).canonical()
+        link = BinaryLink("P" + rkind, pri, rot.canonical(pri), np.inf, p_user, z, sl, ang,
+                          p_user * ang, 0.0, {dname: d.copy()})
+    else:
+        pri = Line(d, rot.point).canonical(rot)
+        link = BinaryLink(rkind + "P", rot, pri, p_user, np.inf, ang, p_user * ang, z, sl, 0.0,
+                          {dname: d.copy()})
+    rot_e, pos_e = pose_errors(link.poses(), task.T, task.reach)
+    link.residual = float(max(rot_e.max(), pos_e.max()))
+    return [link]
+
+
+def ph_links(s12, *, pitch: float, fixed_direction) -> list[BinaryLink]:
+    """The PH link (prismatic joint in the ground, helical in the body) through two
+    positions for a chosen slide direction (pitch 0 gives the PR link).
+
+    Parameters
+    ----------
+    s12 : Screw
+        Displacement from position 1 to position 2 (must rotate).
+    pitch : float
+        The helical joint's pitch (length / rad); 0 makes it revolute (types ``"PR"``).
+    fixed_direction : array_like, shape (3,)
+        Unit slide direction in the ground: the two free parameters; not perpendicular
+        to S₁₂'s axis.
+
+    Returns
+    -------
+    list of one BinaryLink (``"PH"``): the helical axis is S₁₂'s axis direction, its angle
+    S₁₂'s angle (rad, in (0, π]), its slide pitch · angle; ``fixed_slides`` the slide.
+
+    Raises
+    ------
+    SynthesisError
+        Bad input (named); S₁₂ a pure translation; a slide direction perpendicular to
+        its axis.
+    """
+    p = number(pitch, "pitch", unit_="length/rad")
+    return _two(s12, "PH", p, fixed_direction, "fixed_direction")
+
+
+def hp_links(s12, *, pitch: float, moving_direction) -> list[BinaryLink]:
+    """The HP link (helical joint in the ground, prismatic in the body) through two
+    positions for a chosen slide direction in the body (pitch 0 gives the RP link).
+
+    Parameters
+    ----------
+    s12 : Screw
+        Displacement from position 1 to position 2 (must rotate).
+    pitch : float
+        The helical joint's pitch (length / rad); 0 makes it revolute (``"RP"``).
+    moving_direction : array_like, shape (3,)
+        Unit slide direction in the body in position 1: the two free parameters.
+
+    Returns
+    -------
+    list of one BinaryLink (``"HP"``).
+
+    Raises
+    ------
+    SynthesisError
+        As :func:`ph_links`.
+    """
+    p = number(pitch, "pitch", unit_="length/rad")
+    return _two(s12, "HP", p, moving_direction, "moving_direction")

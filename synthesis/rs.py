@@ -1,25 +1,17 @@
 """RS links (revolute in the ground, spherical joint in the body) through four positions
-(the sphere-ended dyads RRS and PRS built from them are in :mod:`synthesis.dyads`).
+as :class:`RSLink` records, for the sphere-ended dyads RRS and PRS of :mod:`synthesis.dyads`.
 
 An RS link (revolute axis in the ground, sphere centre C in the body) reaches
-four positions when C's four positions lie on a circle about the axis.  For an
-axis direction g, C is fixed by the three linear conditions (C_j − C_1)·g = 0;
-the circle's centre O then needs (C_1 − C_j)·O = ½(|C_1|² − |C_j|²) and
-g·O = g·C_1: four linear equations for three unknowns, consistent only when
-their 4x4 augmented determinant h(g) vanishes.  So the RS links form a
-one-parameter family (a curve of directions g on the sphere): linkwright traces
-it deterministically along great circles of directions (a fine sampling of
-h, every sign change refined by Brent's method), and keeps the links that then
-reach the four positions to tolerance.
+four positions when C's four positions lie on a circle about the axis: a
+one-parameter family of links.  :func:`synthesis.spherical.rs_links_at` returns every
+member whose axis direction lies on one great circle of directions (the free
+parameter, an azimuth), from the roots of a univariate trigonometric polynomial.
+:func:`rs_links` collects the members on a set of great circles (default: the three
+coordinate planes and three diagonal planes), every root on each circle.
 """
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
-from scipy.optimize import brentq
-
-from closure.frames import cross
 
 from .errors import SynthesisError
 from .screw import Line
@@ -38,37 +30,6 @@ class RSLink:
         self.angles, self.residual = np.asarray(angles, float), float(residual)
 
 
-def _centre_for(g, T):
-    """Sphere centres C for axis directions g (..., 3): (C_j − C_1)·g = 0, j = 2, 3, 4."""
-    g = np.asarray(g, float)
-    A = np.stack([g @ (t[:3, :3] - np.eye(3)) for t in T[1:]], -2)        # (..., 3, 3)
-    b = -np.stack([g @ t[:3, 3] for t in T[1:]], -1)
-    cond = np.linalg.cond(A)
-    ok = np.isfinite(cond) & (cond < 1e10)
-    C = np.full(g.shape, np.nan)
-    if np.any(ok):
-        C[ok] = np.linalg.solve(A[ok], b[ok][..., None])[..., 0]
-    return C, cond
-
-
-def _h(g, T):
-    """Concyclicity determinant of the sphere centre's four positions, batched over g."""
-    g = np.atleast_2d(np.asarray(g, float))
-    C, _ = _centre_for(g, T)
-    Cs = np.stack([C @ t[:3, :3].T + t[:3, 3] for t in T], 1)              # (B, 4, 3)
-    rows = [np.concatenate([Cs[:, 0] - Cs[:, j], -0.5 * (np.sum(Cs[:, 0] ** 2, -1)
-                                                       - np.sum(Cs[:, j] ** 2, -1))[:, None]], -1)
-            for j in (1, 2, 3)]
-    rows.append(np.concatenate([g, -np.sum(g * Cs[:, 0], -1)[:, None]], -1))
-    M = np.stack(rows, 1)
-    with np.errstate(invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        scale = np.nanmax(np.abs(Cs), axis=(1, 2))
-        scale = np.where(scale > 0, scale, 1.0)
-        return np.linalg.det(np.nan_to_num(M, nan=0.0)) / scale ** 4 * \
-            np.where(np.isnan(C).any(-1), np.nan, 1.0)
-
-
 def _great_circles():
     e = np.eye(3)
     return [(e[0], e[1]), (e[1], e[2]), (e[2], e[0]),
@@ -79,7 +40,7 @@ def _great_circles():
 def rs_links(T, *, samples: int = 720, tol: float = 1e-9, circles=None) -> list[RSLink]:
     """RS links through four positions ``T`` (4, 4, 4), position 1 the identity.
 
-    Returns the members of the one-parameter family met on the great circles of
+    Returns every member of the one-parameter family met on the great circles of
     axis directions ``circles`` (pairs of orthonormal vectors; default the three
     coordinate planes and three diagonal planes), each reaching the positions to
     ``tol`` (relative to the task's reach, the size of its coordinates).
@@ -89,7 +50,9 @@ def rs_links(T, *, samples: int = 720, tol: float = 1e-9, circles=None) -> list[
     T : array_like, shape (4, 4, 4)
         Rigid transforms of positions 1–4; ``T[0]`` is the identity.
     samples : int
-        Directions sampled per great circle (≥ 3).
+        Kept for compatibility (validated, ≥ 3): the links on each circle are now the
+        roots of a polynomial, all found without sampling, so it no longer changes the
+        result.
     tol : float
         Largest circle residual accepted (relative), positive.
     circles : sequence of pairs of orthonormal 3-vectors, optional
@@ -121,50 +84,31 @@ def rs_links(T, *, samples: int = 720, tol: float = 1e-9, circles=None) -> list[
             if abs(a @ b) > 1e-6:
                 raise SynthesisError(f"circles[{i}]: the two vectors are not orthogonal "
                                      f"(dot product {a @ b:.1e})")
-    out = []
+    from .screw import Screw
+    from .spherical import rs_links_at
+    scr = [Screw.from_matrix(t) for t in T[1:]]
+    out: list[RSLink] = []
     for e1, e2 in (circles or _great_circles()):
-        psi = np.linspace(0, np.pi, samples, endpoint=False)     # g and −g are the same axis
-        g = np.cos(psi)[:, None] * e1 + np.sin(psi)[:, None] * e2
-        hv = _h(g, T)
-        for i in range(samples - 1):
-            a, b = hv[i], hv[i + 1]
-            if not (np.isfinite(a) and np.isfinite(b)) or a * b > 0:
-                continue
-            f = lambda p: float(_h(np.cos(p) * e1 + np.sin(p) * e2, T)[0])
-            try:
-                p = brentq(f, psi[i], psi[i + 1], xtol=1e-15, rtol=1e-15)
-            except ValueError:
-                continue
-            link = _rs_from_direction(np.cos(p) * e1 + np.sin(p) * e2, T, size)
-            if link is not None and link.residual <= tol and \
-                    not any(_same(link, o, size) for o in out):
+        # the great circle cos β e1 + sin β e2 is azimuth 0 of the frame (e2, e1 × e2, e1)
+        e2 = e2 - (e2 @ e1) * e1
+        e2 /= np.linalg.norm(e2)
+        F = np.stack([e2, np.cross(e1, e2), e1], 1)
+        try:
+            found = rs_links_at(scr, 0.0, frame=F, tol=tol)
+        except SynthesisError as e:
+            if "screws" in str(e):
+                raise SynthesisError(f"T: {e}") from None
+            raise
+        for lk in found:
+            link = RSLink(lk.fixed_axis, lk.moving_axis.point, lk.fixed_angles, lk.residual)
+            if not any(_same(link, o, size) for o in out):
                 out.append(link)
     if not out:
-        raise SynthesisError("rs_links: no RS link found on the sampled directions (positions "
-                             "degenerate, or the family misses these great circles)")
+        raise SynthesisError("rs_links: no RS link found on the given great circles of "
+                             "directions (positions degenerate, or the family misses them)")
     return out
 
 
 def _same(a: RSLink, b: RSLink, size: float) -> bool:
     return abs(abs(a.axis.direction @ b.axis.direction) - 1) < 1e-8 and \
         np.linalg.norm(a.centre - b.centre) < 1e-7 * max(size, np.linalg.norm(a.centre))
-
-
-def _rs_from_direction(g, T, size):
-    g = g / np.linalg.norm(g)
-    C, _ = _centre_for(g[None], T)
-    C = C[0]
-    if not np.all(np.isfinite(C)):
-        return None
-    Cs = np.array([t[:3, :3] @ C + t[:3, 3] for t in T])
-    A = np.array([2 * (Cs[0] - c) for c in Cs[1:]] + [g])
-    b = np.array([Cs[0] @ Cs[0] - c @ c for c in Cs[1:]] + [g @ Cs[0]])
-    O, *_ = np.linalg.lstsq(A, b, rcond=None)
-    r = np.linalg.norm(Cs - O, axis=1)
-    resid = max(np.ptp(r), np.abs((Cs - Cs[0]) @ g).max()) / size
-    if r.min() < 1e-9 * size:
-        return None
-    axis = Line(g, O).canonical()
-    u0 = Cs[0] - O
-    ang = [float(np.arctan2(cross(u0, c - O) @ g, u0 @ (c - O))) for c in Cs]
-    return RSLink(axis, C, ang, resid)

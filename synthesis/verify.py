@@ -19,7 +19,7 @@ from .validate import array, line, number
 from .validate import transform as _transform
 
 __all__ = ["chain_mechanism", "verify_chain", "verify_chains", "verify_points", "pose_error",
-           "pose_errors"]
+           "pose_errors", "verify_links", "verify_open_chains"]
 
 
 def _frame_of(line: Line) -> np.ndarray:
@@ -266,5 +266,65 @@ def verify_links(links, targets, length: float = 1.0) -> np.ndarray:
     pose = m.solve(np.concatenate(cols, 1), continuation=False)
     link = pose.kinematics(twists=False)["link"]
     bodies = link[:, [m.links.index(f"B{v}") for v in range(len(links))]]
+    rot, pos = pose_errors(bodies, targets[:, None], length)
+    return np.maximum(rot.max(0), pos.max(0))
+
+
+def verify_open_chains(chains, targets, length: float = 1.0) -> np.ndarray:
+    """Verify open chains of any number of screw joints (R, H, C, P) with the closure engine:
+    every chain hangs from the ground of one mechanism, driven by its joint values at every
+    position in one batched call, and its last link's pose is compared with the given one.
+
+    Binary links with spherical or universal joints are verified through their
+    :meth:`synthesis.BinaryLink.engine_chain` (an S as three revolutes, a U as two).
+
+    Parameters
+    ----------
+    chains : sequence of (types, lines, pitches, joint_values)
+        ``types`` k letters of R, H, C, P (ground joint first); ``lines`` k Line (axes in
+        the first position); ``pitches`` k floats (length / rad, used by H joints);
+        ``joint_values`` (P, m): the driven coordinates in joint order (one per R, H, P
+        joint, two per C joint: angle rad, slide length).
+    targets : array_like, shape (P, 4, 4)
+        The body's given poses.
+    length : float
+        Positive length the translation errors are divided by.
+
+    Returns
+    -------
+    numpy.ndarray, shape (len(chains),)
+        Each chain's largest pose error over the positions (rad, or translation / length).
+    """
+    if not chains:
+        return np.zeros(0)
+    length = number(length, "length", positive=True)
+    targets = _transform(targets, "targets", batch=True)
+    m = Mechanism()
+    frames = _frames_of([ln for ch in chains for ln in ch[1]])
+    cols, f, last = [], 0, []
+    for v, (types, lines, pitches, jv) in enumerate(chains):
+        if not isinstance(types, str) or not types or any(t not in "RHCP" for t in types) \
+                or len(lines) != len(types) or len(pitches) != len(types):
+            raise SynthesisError(f"chains[{v}]: types: expected letters of R, H, C, P, one Line "
+                                 f"and one pitch per joint, got {types!r}")
+        names = ["ground"] + [f"v{v}L{k + 1}" for k in range(len(types))]
+        for k, t in enumerate(types):
+            m.add_link(names[k + 1])
+            jn = f"v{v}j{k + 1}"
+            m.add_joint(jn, t, names[k], names[k + 1], at=frames[f], validate=False,
+                        pitch=float(pitches[k]) if t == "H" else None)
+            f += 1
+            m.add_input(jn, 0)
+            if t == "C":
+                m.add_input(jn, 1)
+        jv = np.asarray(jv, float)
+        if jv.shape != (targets.shape[0], sum(2 if t == "C" else 1 for t in types)):
+            raise SynthesisError(f"chains[{v}]: joint_values: expected one row per target and "
+                                 f"one column per driven coordinate, got shape {jv.shape}")
+        cols.append(jv)
+        last.append(names[-1])
+    pose = m.solve(np.concatenate(cols, 1), continuation=False)
+    link = pose.kinematics(twists=False)["link"]
+    bodies = link[:, [m.links.index(n) for n in last]]
     rot, pos = pose_errors(bodies, targets[:, None], length)
     return np.maximum(rot.max(0), pos.max(0))

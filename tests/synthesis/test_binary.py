@@ -461,3 +461,72 @@ def test_free_pitch_hh_gives_the_generating_pitches_back():
         # any other direction: another member of the family, also exact and verified
         other = hh_links_free_pitch(*ch["screws"], unit(rng))[0]
         assert verify_links([other.chain()], ch["T"], task_scale(ch["T"])[2])[0] <= 1e-9
+
+
+# ------------------------------------------------------------------ P joints, two positions
+@pytest.mark.parametrize("kind", ["PR", "RP", "PH", "HP"])
+def test_two_position_prismatic_links_give_the_generating_link_back(kind):
+    """A random PR/RP/PH/HP link moved to a second position: its own slide direction
+    (the two free parameters) gives it back, axes, slide and angle."""
+    from synthesis.prismatic import hp_links, ph_links, pr_links, rp_links
+    rng = np.random.default_rng({"PR": 71, "RP": 72, "PH": 73, "HP": 74}[kind])
+    worst = 0.0
+    for _ in range(20):
+        d, w, cw = unit(rng), unit(rng), rng.normal(size=3)
+        p = 0.0 if "R" in kind else rng.uniform(-0.6, 0.6)
+        s, phi = rng.normal(), rng.uniform(0.3, 2.8)
+        if kind[0] == "P":          # slide in the ground, then the screw about (w, cw)
+            T2 = screw_T(d, np.zeros(3), 0.0, s) @ screw_T(w, cw, phi, p * phi)
+        else:                       # the screw about (w, cw) in the ground, then the slide
+            T2 = screw_T(w, cw, phi, p * phi) @ screw_T(d, np.zeros(3), 0.0, s)
+        T = np.array([np.eye(4), T2])
+        s12 = Screw.from_matrix(T2)
+        L = size_of(T)
+        if kind == "PR":
+            links = pr_links(s12, None, fixed_direction=d)
+        elif kind == "RP":
+            links = rp_links(s12, None, moving_direction=d)
+        elif kind == "PH":
+            links = ph_links(s12, pitch=p, fixed_direction=d)
+        else:
+            links = hp_links(s12, pitch=p, moving_direction=d)
+        assert len(links) == 1
+        lk = links[0]
+        assert lk.types == (kind if p else kind.replace("H", "R"))
+        pri, rot = (lk.fixed_axis, lk.moving_axis) if kind[0] == "P" else \
+            (lk.moving_axis, lk.fixed_axis)
+        err = max(np.linalg.norm(np.cross(d, pri.direction)), line_error(w, cw, rot, L))
+        got_s = (lk.fixed_slides if kind[0] == "P" else lk.moving_slides)[1] * (d @ pri.direction)
+        sgn = w @ rot.direction
+        got_phi = (lk.moving_angles if kind[0] == "P" else lk.fixed_angles)[1] * sgn
+        assert abs(got_s - s) < 1e-8 * L and abs(got_phi - phi) < 1e-10
+        assert verify_links([lk.chain()], T, task_scale(T)[2])[0] <= 1e-9
+        worst = max(worst, err)
+    assert worst < TOL_AXIS, worst
+
+
+def test_two_position_prismatic_links_pitch_zero_and_bad_input():
+    from synthesis.prismatic import hp_links, ph_links, pr_links, rp_links
+    rng = np.random.default_rng(75)
+    s12 = Screw(unit(rng), rng.normal(size=3), 1.2, 0.4)
+    d = unit(rng)
+    for a, b in ((ph_links(s12, pitch=0.0, fixed_direction=d)[0],
+                  pr_links(s12, None, fixed_direction=d)[0]),
+                 (hp_links(s12, pitch=0.0, moving_direction=d)[0],
+                  rp_links(s12, None, moving_direction=d)[0])):
+        assert a.types == b.types
+        np.testing.assert_array_equal(a.fixed_axis.point, b.fixed_axis.point)
+        np.testing.assert_array_equal(a.moving_axis.point, b.moving_axis.point)
+    perp = np.cross(s12.axis, d)
+    perp /= np.linalg.norm(perp)
+    cases = [(lambda: ph_links(s12, pitch=0.1, fixed_direction=perp), "fixed_direction"),
+             (lambda: hp_links(s12, pitch=np.nan, moving_direction=d), "pitch"),
+             (lambda: pr_links(s12, None), "s13"),
+             (lambda: rp_links(s12, None, moving_direction=[1.0, 2.0]), "moving_direction"),
+             (lambda: pr_links(s12, s12, fixed_direction=d), "fixed_direction"),
+             (lambda: ph_links(Screw([0, 0, 1.0], [0, 0, 0], 0.0, 1.0), pitch=0.1,
+                               fixed_direction=d), "s12")]
+    for f, name in cases:
+        with pytest.raises(SynthesisError) as e:
+            f()
+        assert name in str(e.value)

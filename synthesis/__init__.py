@@ -19,14 +19,18 @@ pr_links, rp_links  PR and RP links through three positions turned about one dir
                     slide direction
 BinaryLink          a binary link of R, H, C joints: axes, pitches, joint values, residual
 verify_chains, verify_points, verify_links   engine verification (synthesis.verify; not in __all__)
-enumerate_dyads     every variant of a family as a DataFrame verified by the engine:
-                    RRR by four positions (36), RRS by six, PRS by five
-families            seed 001's Table 3 as data, with what is implemented
+enumerate_dyads     every variant of a family of Kharatyan's Table 3 (41 of its 51 families,
+                    and the reverses of those by kinematic inversion) as one table layout
+                    verified by the engine, free parameters as keyword choices
+                    (synthesis.decompose, .sphere_families, .sphere_middle, .hooke_families)
+families            Kharatyan's Table 3 as data, with the arrangements implemented
+implemented_families, transition_joint, two_position_link   the family engine's parts
+                    (synthesis.dyads, .transition, .twopos; not in __all__)
 invert_chain, inverse_screws   kinematic inversion of a synthesised chain
 """
 from .binary import BinaryLink
 from .cylindric import cc_direction_residual, cc_directions, cc_links, cr_links, rc_links
-from .dyads import DYAD_COLUMNS, enumerate_dyads, rrr_dyads
+from .dyads import DYAD_COLUMNS, enumerate_dyads, implemented_families, rrr_dyads  # noqa: F401
 from .errors import SynthesisError
 from .families import JOINT_LETTERS, families
 from .inversion import invert_chain, inverse_screws
@@ -35,6 +39,8 @@ from .rs import RSLink, rs_links
 from .screw import Line, Screw, relative_screw
 from .helical import helical_links, hh_links_free_pitch
 from .prismatic import cp_links, pc_links, pr_links, rp_links
+from .transition import transition_joint  # noqa: F401
+from .twopos import two_position_link  # noqa: F401
 from .verify import (chain_mechanism, verify_chain, verify_chains, verify_links,  # noqa: F401
                      verify_points)
 
@@ -43,3 +49,7 @@ __all__ = ["Screw", "Line", "relative_screw", "RRLink", "rr_links", "rotation_ax
            "families", "JOINT_LETTERS", "invert_chain", "inverse_screws", "SynthesisError",
            "BinaryLink", "helical_links", "hh_links_free_pitch", "rc_links", "cr_links", "cc_links", "cc_direction_residual",
            "cc_directions", "pr_links", "rp_links", "pc_links", "cp_links"]
+
+#: importable names that are not in __all__ (the engine's parts; pyflakes sees them used)
+_NOT_IN_ALL = (implemented_families, transition_joint, two_position_link, verify_chains,
+               verify_links, verify_points)

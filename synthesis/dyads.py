@@ -1,6 +1,7 @@
-"""Dyads by finite positions (seed 001), the family table's decompositions: RRR by four
-positions, RRS by six and PRS by five, enumerated and verified by the engine
-(:mod:`synthesis.verify`).
+"""Dyads by finite positions (Kharatyan 1981), the entry point of the family table's
+decompositions: RRR by four positions here, the sphere-ended and all other families in
+:mod:`synthesis.sphere_families` and :mod:`synthesis.decompose`, enumerated and verified
+by the engine (:mod:`synthesis.verify`).
 
 RRR (seed 001, Fig. 1).  An RR link ("2–3") is synthesised through three of
 the positions (always position 1 and two of 2, 3, 4: the screws are given from
@@ -21,14 +22,18 @@ hang from the ground of one :class:`closure.Mechanism`, are driven to their
 joint values at all positions in one batched call, and each body pose is
 compared with the given pose.
 
-RRS (seed 001, Fig. 2): the RS link ("2–3") works through positions 1–4 with
+RRS (seed 001, Fig. 2): the RS link ("2–3") works through four positions with
 joint 1 locked; the two later positions are reached by turning about axis 1
 (joint 2 locked at its value in the transition position s, the sphere free),
 so axis 1 is the axis of the circle through C_s, C_5, C_6.  PRS: the slide
-of the prismatic joint 1 carries C from C_s to C_5.
+of the prismatic joint 1 carries C from C_s to C_5.  These, RPS, and both
+arrangements of each, are built in :mod:`synthesis.sphere_families`; every other
+family of the table in :mod:`synthesis.decompose`.  :func:`enumerate_dyads` is the
+entry point for all of them.
 """
 from __future__ import annotations
 
+import functools
 import itertools
 
 import numpy as np
@@ -38,18 +43,22 @@ from closure.frames import cross
 
 from .errors import SynthesisError
 from .rr import _angle_about, _rot, rotation_axis_between, rr_links
-from .rs import rs_links
 from .screw import Line
 from .validate import screws as _screws, task_scale
 # chain_mechanism, verify_chain, verify_chains: re-exported (they lived here before synthesis.verify)
-from .verify import chain_mechanism, verify_chain, verify_chains, verify_points  # noqa: F401
+from .verify import chain_mechanism, verify_chain, verify_chains
 
-__all__ = ["enumerate_dyads", "rrr_dyads", "verify_chain", "verify_chains", "chain_mechanism", "DYAD_COLUMNS"]
+__all__ = ["enumerate_dyads", "rrr_dyads", "rrs_dyads", "prs_dyads", "rps_dyads",
+           "implemented_families", "verify_chain", "verify_chains", "chain_mechanism",
+           "DYAD_COLUMNS", "circle_axis"]
 
-DYAD_COLUMNS = (["family", "variant", "order"]
+DYAD_COLUMNS = (["family", "variant", "order", "arrangement", "transition"]
                 + [f"j{k}_{c}" for k in (1, 2, 3)
-                   for c in ("type", "ux", "uy", "uz", "x", "y", "z")]
-                + ["residual"])
+                   for c in ("type", "ux", "uy", "uz", "x", "y", "z", "pitch")]
+                + ["residual", "reason"])
+
+#: pitch column of each joint kind that has no pitch of its own (H: the given pitch)
+_PITCH = {"R": 0.0, "P": np.inf, "C": np.nan, "S": np.nan, "U": np.nan}
 
 
 def _check_screws(screws, n, family):
@@ -125,7 +134,9 @@ def rrr_dyads(screws) -> pd.DataFrame:
                     lines = _canonical_chain(lines)
                     jv = np.array([vals[k] for k in (1, 2, 3, 4)])
                     rows.append(_row("RRR", variant, order, "RRR", lines, np.nan,
-                                     mechanism=mech, rr=rr_i, joint_values=jv))
+                                     arrangement=mech, transition="RR", mechanism=mech, rr=rr_i,
+                                     main_link="RR", main_positions=str(triple),
+                                     transition_position=s, joint_values=jv))
                     chains.append((len(rows) - 1, ("RRR", lines, jv)))
     res = verify_chains([c for _, c in chains], np.array(T), size)
     for (i, _), r in zip(chains, res):
@@ -146,6 +157,7 @@ def _row(family, variant, order, types, lines, residual, **extra):
         row[f"j{k}_type"] = t
         row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"] = ln.direction
         row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"] = ln.point
+        row[f"j{k}_pitch"] = _PITCH[t]
     row["residual"] = residual
     row["reason"] = ""
     jv = extra.pop("joint_values", None)
@@ -160,20 +172,35 @@ def _row(family, variant, order, types, lines, residual, **extra):
 def _failed_row(variant, order, mech, rr_i, reason):
     row = {c: np.nan for c in DYAD_COLUMNS}
     row.update(family="RRR", variant=variant, order=order, mechanism=mech, rr=rr_i,
-               reason=reason, j1_type="R", j2_type="R", j3_type="R")
+               reason=reason, j1_type="R", j2_type="R", j3_type="R", arrangement=mech,
+               transition="RR", j1_pitch=0.0, j2_pitch=0.0, j3_pitch=0.0)
     return row
 
 
-def rrs_dyads(screws) -> pd.DataFrame:
-    """RRS dyads through six positions (RS link through 1–4, axis 1 from the circle of the
-    sphere centre's later positions); see :mod:`synthesis.rs`."""
-    return pd.DataFrame(sphere_dyads("RRS", _check_screws(screws, 6, "RRS")))
+def rrs_dyads(screws, *, azimuth=None) -> pd.DataFrame:
+    """RRS dyads through six positions (RS link through four, the R transition joint through
+    the circle of the sphere centre's two other positions); see
+    :mod:`synthesis.sphere_families`."""
+    from .sphere_families import sphere_family_dyads
+    return pd.DataFrame(sphere_family_dyads("RRS", _check_screws(screws, 6, "RRS"),
+                                            azimuth=azimuth))
 
 
-def prs_dyads(screws) -> pd.DataFrame:
-    """PRS dyads through five positions (RS link through 1–4, the slide carries the sphere
-    centre to position 5); see :mod:`synthesis.rs`."""
-    return pd.DataFrame(sphere_dyads("PRS", _check_screws(screws, 5, "PRS")))
+def prs_dyads(screws, *, azimuth=None) -> pd.DataFrame:
+    """PRS dyads through five positions (RS link through four and the slide carrying the
+    sphere centre to the fifth, or PS through three and R through two); see
+    :mod:`synthesis.sphere_families`."""
+    from .sphere_families import sphere_family_dyads
+    return pd.DataFrame(sphere_family_dyads("PRS", _check_screws(screws, 5, "PRS"),
+                                            azimuth=azimuth))
+
+
+def rps_dyads(screws, *, azimuth=None) -> pd.DataFrame:
+    """RPS dyads through five positions (PS through three and R through two, or RS through
+    four and the slide of joint 2 through one); see :mod:`synthesis.sphere_families`."""
+    from .sphere_families import sphere_family_dyads
+    return pd.DataFrame(sphere_family_dyads("RPS", _check_screws(screws, 5, "RPS"),
+                                            azimuth=azimuth))
 
 
 def circle_axis(p1, p2, p3):
@@ -195,96 +222,186 @@ def circle_axis(p1, p2, p3):
     return Line(n, O).canonical(), angs
 
 
-def sphere_dyads(family, screws):
-    """RRS (six positions) or PRS (five positions) dyads as rows for the variant table."""
-    n_pos = 6 if family == "RRS" else 5
-    T, size = _task(screws)
-    links = rs_links(np.array(T[:4]))
-    rows, chains = [], []
-    variant = 0
-    for s in (1, 2, 3, 4):
-        later = list(range(5, n_pos + 1))
-        order = f"RS through (1, 2, 3, 4); joint 1 carries position {s} to {tuple(later)}"
-        for m_i, link in enumerate(links):
-            variant += 1
-            Cs = [t[:3, :3] @ link.centre + t[:3, 3] for t in T]
-            ax2 = link.axis
-            try:
-                if family == "RRS":
-                    ax1, angs = circle_axis(Cs[s - 1], Cs[4], Cs[5])
-                    q1 = [0.0] * 4 + angs
-                    types = "RRS"
-                else:
-                    d = Cs[4] - Cs[s - 1]
-                    if np.linalg.norm(d) < 1e-12 * size:
-                        raise SynthesisError("prismatic axis: the sphere centre does not move "
-                                             f"from position {s} to 5")
-                    ax1 = Line(d / np.linalg.norm(d), Cs[s - 1]).canonical()
-                    q1 = [0.0] * 4 + [float(np.linalg.norm(d))]
-                    types = "PRS"
-            except SynthesisError as e:
-                row = _row(family, variant, order, family, [ax2, ax2, ax2], np.nan)
-                row["reason"] = str(e)
-                rows.append(row)
-                continue
-            q2 = list(link.angles[:4]) + [link.angles[s - 1]] * (n_pos - 4)
-            centre = Line(np.array([0, 0, 1.0]), link.centre)
-            lines = [ax1, ax2.canonical(ax1), centre]
-            jv = np.c_[q1, q2]
-            row = _row(family, variant, order, types, lines, np.nan, member=m_i,
-                       joint_values=np.c_[jv, np.full(n_pos, np.nan)])
-            for c in ("ux", "uy", "uz"):
-                row[f"j3_{c}"] = np.nan                        # a sphere has no axis
-            rows.append(row)
-            chains.append((len(rows) - 1, (types[:2], lines[:2], jv, link.centre)))
-    res = verify_points([c for _, c in chains], np.array(T), size)
-    for (i, _), r in zip(chains, res):
-        rows[i]["residual"] = float(r)
-    return rows
+def _middle(family):
+    def solve(screws, *, azimuth=None) -> pd.DataFrame:
+        from .sphere_middle import sphere_middle_dyads
+        return pd.DataFrame(sphere_middle_dyads(family, _screws(screws, "screws"),
+                                                azimuth=azimuth))
+    solve.__name__ = f"{family.lower()}_dyads"
+    return solve
 
 
-FAMILY_SOLVERS = {"RRR": rrr_dyads, "RRS": rrs_dyads, "PRS": prs_dyads}
+def _hooke(family):
+    def solve(screws, *, azimuth=None, axis_azimuth=None) -> pd.DataFrame:
+        from .hooke_families import hooke_family_dyads
+        return pd.DataFrame(hooke_family_dyads(family, _screws(screws, "screws"),
+                                               azimuth=azimuth, axis_azimuth=axis_azimuth))
+    solve.__name__ = f"{family.lower()}_dyads"
+    return solve
 
 
-def enumerate_dyads(family: str, screws) -> pd.DataFrame:
+FAMILY_SOLVERS = {"RRR": rrr_dyads, "RRS": rrs_dyads, "PRS": prs_dyads, "RPS": rps_dyads,
+                  **{f: _middle(f) for f in ("RSR", "SRR", "RSP", "SRP")},
+                  **{f: _hooke(f) for f in ("RUR", "URR", "RUP", "URP")}}
+
+
+def implemented_families() -> dict:
+    """Family → how :func:`enumerate_dyads` builds it (``"direct"`` or ``"inverse of XYZ"``)
+    and the numbers of positions it takes."""
+    return dict(_implemented())
+
+
+@functools.lru_cache(maxsize=1)
+def _implemented() -> dict:
+    from .decompose import arrangements
+    from .families import family_names
+    out = {"RRR": ("direct", (4,)), "RRS": ("direct", (6,)), "PRS": ("direct", (5,)),
+           "RPS": ("direct", (5,)), "RSR": ("direct", (5,)), "SRR": ("direct", (5,)),
+           "RSP": ("direct", (4,)), "SRP": ("direct", (4,)), "RUR": ("direct", (5,)),
+           "URR": ("direct", (5,)), "RUP": ("direct", (4,)), "URP": ("direct", (4,))}
+    names = set(family_names())
+    for fam in sorted(names | {f[::-1] for f in names}):
+        if fam in out or "S" in fam or "U" in fam:
+            continue
+        arr = arrangements(fam)
+        if arr:
+            out[fam] = ("direct", tuple(sorted({a[3] + a[4] for a in arr})))
+    for fam in sorted(names | {f[::-1] for f in names}):
+        if fam not in out and "S" not in fam and "U" not in fam and fam[::-1] in out and \
+                out[fam[::-1]][0] == "direct":
+            out[fam] = (f"inverse of {fam[::-1]}", out[fam[::-1]][1])
+    return out
+
+
+def enumerate_dyads(family: str, screws, **choices) -> pd.DataFrame:
     """Every variant the method yields for ``family`` through the given positions.
 
     Parameters
     ----------
     family : str
-        A dyad family of :func:`families` that is implemented (``"RRR"``).
+        Three joint letters, ground joint first (R, P, C, H, S; e.g. ``"RRR"``,
+        ``"RPC"``): a family of :func:`families` that is implemented, or the reverse of
+        one (enumerated by kinematic inversion: the reverse family through the inverse
+        displacements, each chain reversed and verified again).
     screws : sequence of Screw
         S₁₂ … S₁N, the displacements from position 1.
+    **choices
+        Free parameters of the decomposition (see :mod:`synthesis.decompose`), each a
+        scalar (one vector) or a grid the user sets: ``pitch`` (length/rad, required for
+        families with a helical joint), ``slide_direction`` (unit vector(s)),
+        ``prismatic_slide`` (length), ``fixed_direction`` (unit vector(s)),
+        ``transition_angle`` (rad); for the sphere-ended families ``azimuth`` (rad: the
+        main RS/PS link's fixed axis or slide direction lies on the great circle of
+        azimuth ψ in the task's reference frame, :func:`synthesis.spherical.task_frame`
+        of all the screws; default 0, π/4, π/2, 3π/4).  A choice the family does not have
+        raises.  RUR, URR take ``azimuth`` (the UR link's revolute axis), RUP, URP
+        ``azimuth`` (the UP link's slide direction) and ``axis_azimuth`` (its U joint's
+        first axis), rad (see :mod:`synthesis.hooke_families`).
 
     Returns
     -------
     pandas.DataFrame
-        Columns ``family, variant, order``, per joint k = 1, 2, 3 (1 at the
-        ground, 3 at the body) ``j{k}_type, j{k}_ux, j{k}_uy, j{k}_uz, j{k}_x,
-        j{k}_y, j{k}_z`` (axes in the first position, canonical points),
-        ``residual`` (largest pose error when the engine drives the dyad through
-        all positions: rad, or length relative to the task's reach, the size of
-        its coordinates),
-        ``reason`` (why a variant degenerated, else empty), ``mechanism``
-        (Fig. 1a/1b), ``rr`` (which RR solution) and the joint values
-        ``q{k}_pos{p}`` (rad) at every position.
+        One row per variant.  Columns ``family, variant, order`` (how the positions
+        were assigned), ``arrangement`` (``"a"``: the main link is joints 2–3 and joint
+        1 is the transition joint; ``"b"``: the main link is joints 1 and 3, joint 2 the
+        transition joint), ``transition`` (the transition joint's kind and the joint it
+        carries, e.g. ``"RC"``), per joint k = 1, 2, 3 (1 at the ground, 3 at the body)
+        ``j{k}_type, j{k}_ux, j{k}_uy, j{k}_uz, j{k}_x, j{k}_y, j{k}_z`` (axes in the
+        first position, oriented with their largest component positive for the
+        decomposed families; canonical points; a prismatic joint's point is immaterial, a
+        sphere has a centre and no axis), ``j{k}_pitch`` (length/rad: 0 for R, the pitch
+        for H, inf for P, NaN for C and S), ``residual`` (largest pose error when the
+        engine drives the dyad through all positions: rad, or length relative to the
+        task's reach, the size of its coordinates), ``reason`` (why a variant
+        degenerated, else empty; such rows have NaN geometry and no residual), and
+        ``main_link, main_positions, transition_position``, one column per free
+        parameter used (vectors as ``name_x, name_y, name_z``), the joint values
+        ``q{k}_pos{p}`` (the driven coordinate: angle in rad, a prismatic joint's slide)
+        and, for the decomposed families, ``d{k}_pos{p}`` (slide along the axis, length).
+        RRR also has ``mechanism`` (= arrangement) and ``rr`` (which RR solution).
 
     Raises
     ------
     SynthesisError
-        An unknown or unimplemented family, or screws that are not a sequence of
-        the right number of :class:`Screw`.
+        An unknown or unimplemented family, screws that are not a sequence of the right
+        number of :class:`Screw`, an unknown or inapplicable choice, or a missing pitch.
     """
     if not isinstance(family, str):
         raise SynthesisError(f"family: expected a family name such as 'RRR', got "
                              f"{type(family).__name__} {family!r}")
     fam = family.upper()
-    if fam not in FAMILY_SOLVERS:
-        from .families import families
-        known = families()
-        if fam in set(known.family):
-            raise SynthesisError(f"family {family!r}: in seed 001's table but not implemented yet; "
-                                 f"implemented: {', '.join(FAMILY_SOLVERS)}")
+    impl = _implemented()
+    if fam not in impl:
+        from .families import family_names
+        known = set(family_names())
+        if fam in known or fam[::-1] in known:
+            raise SynthesisError(f"family {family!r}: in Kharatyan's Table 3 (or its reverse) but "
+                                 f"not implemented yet; implemented: {', '.join(sorted(impl))}")
         raise SynthesisError(f"family {family!r}: unknown; expected one of "
-                             f"{', '.join(sorted(set(known.family)))}")
-    return FAMILY_SOLVERS[fam](_screws(screws, "screws"))
+                             f"{', '.join(sorted(known))}")
+    how = impl[fam][0]
+    if how != "direct":
+        return _inverse_family(fam, screws, choices)
+    if fam in FAMILY_SOLVERS:
+        allowed = ({"azimuth"} if "S" in fam else {"azimuth", "axis_azimuth"}
+                   if fam in ("RUP", "URP") else {"azimuth"} if "U" in fam else set())
+        bad = set(choices) - allowed
+        if bad:
+            raise SynthesisError(f"{', '.join(sorted(bad))}: not a free parameter of family "
+                                 f"{fam} (its free parameters: "
+                                 f"{', '.join(sorted(allowed)) or 'none'})")
+        return FAMILY_SOLVERS[fam](_screws(screws, "screws"), **choices)
+    from .decompose import decomposed_dyads
+    return decomposed_dyads(fam, _screws(screws, "screws"), **choices)
+
+
+def _inverse_family(fam, screws, choices):
+    """``fam`` by kinematic inversion of its reverse (see :func:`enumerate_dyads`)."""
+    from .decompose import _flipped, verify_dyads
+    from .inversion import inverse_screws
+    screws = _screws(screws, "screws")
+    ch = dict(choices)
+    if ch.get("pitch") is not None and np.ndim(ch["pitch"]) == 1 and len(ch["pitch"]) == 3:
+        ch["pitch"] = list(ch["pitch"])[::-1]
+    df = enumerate_dyads(fam[::-1], inverse_screws(screws), **ch)
+    T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
+    _, _, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
+    n = len(T)
+    rows, chains = [], []
+    for _, r in df.iterrows():
+        out = r.to_dict()
+        out["family"] = fam
+        out["order"] = f"inverse of {fam[::-1]}: {r['order']}"
+        for c in ("type", "ux", "uy", "uz", "x", "y", "z", "pitch"):
+            for k in (1, 2, 3):
+                out[f"j{k}_{c}"] = r[f"j{4 - k}_{c}"]
+        for p in range(1, n + 1):
+            for k in (1, 2, 3):
+                for q in ("q", "d"):
+                    if f"{q}{4 - k}_pos{p}" in r:
+                        out[f"{q}{k}_pos{p}"] = -r[f"{q}{4 - k}_pos{p}"]
+        if r["reason"] == "":
+            lines = [Line(np.array([out[f"j{k}_ux"], out[f"j{k}_uy"], out[f"j{k}_uz"]]),
+                          np.array([out[f"j{k}_x"], out[f"j{k}_y"], out[f"j{k}_z"]]))
+                     for k in (1, 2, 3)]
+            lines = _canonical_chain(lines)
+            vals = np.zeros((n, 3, 2))
+            for k in range(3):
+                sgn = -1.0 if _flipped(lines[k].direction) else 1.0
+                lines[k] = Line(sgn * lines[k].direction, lines[k].point)
+                for p in range(n):
+                    for q in ("q", "d"):
+                        out[f"{q}{k + 1}_pos{p + 1}"] *= sgn
+                    t = fam[k]
+                    vals[p, k] = (0.0 if t == "P" else out[f"q{k + 1}_pos{p + 1}"],
+                                  out[f"d{k + 1}_pos{p + 1}"])
+                out[f"j{k + 1}_ux"], out[f"j{k + 1}_uy"], out[f"j{k + 1}_uz"] = lines[k].direction
+                out[f"j{k + 1}_x"], out[f"j{k + 1}_y"], out[f"j{k + 1}_z"] = lines[k].point
+            pitches = [out[f"j{k}_pitch"] for k in (1, 2, 3)]
+            chains.append((len(rows), (fam, lines, pitches, vals)))
+        out["residual"] = np.nan
+        rows.append(out)
+    res = verify_dyads([c for _, c in chains], T, reach)
+    for (i, _), v in zip(chains, res):
+        rows[i]["residual"] = float(v)
+    return pd.DataFrame(rows)[list(df.columns)]

@@ -340,7 +340,7 @@ def of_mechanism(mechanism, pose, *, platform: str, springs: dict | None = None,
             raise StiffnessError(f"wrench: expected a wrench (f, m) of shape (6,) (N, N·m), got "
                                  f"shape {wrench.shape}")
     ks = pose.kinematics()
-    R, p = _frame(frame, ks["link"][:, mechanism.tree.link_index[platform]])
+    R, p = _frame(frame, ks.link[:, mechanism.tree.link_index[platform]])
     if wrench is not None and roles[4]:
         # elastic links under load: their deformation joints made explicit (see _augment)
         aug, ks_a, roles_a, beams = _augment(mechanism, pose, roles)
@@ -387,13 +387,13 @@ def _columns(mechanism, ks, platform, roles, free):
     col = np.ones(t.nv)
     col[t.length_cols] = t.scale                          # dq = col · dq_s, dq_s dimensionless
     path = t.path_sign[t.link_index[platform]]
-    twists = [ks["S"][:, free]]
+    twists = [ks.S[:, free]]
     loop, along, scale = [t.loop_coef[:, free]], [path[free]], [col[free]]
     stiff = [Kq[np.ix_(free, free)]]
     for li, c, F, K6, _ in links:
         # a deformation of the link in series with the joint: six unit twists of the frame
         # F carried by the link, with the joint's own loop and path coefficients
-        twists.append(np.swapaxes(adjoint(ks["link"][:, li] @ F), 1, 2))
+        twists.append(np.swapaxes(adjoint(ks.link[:, li] @ F), 1, 2))
         loop.append(np.repeat(t.loop_coef[:, c:c + 1], 6, 1))
         along.append(np.full(6, path[c]))
         scale.append(np.r_[np.full(3, t.scale), np.ones(3)])
@@ -566,7 +566,8 @@ def _loaded(mechanism, ks, idx, free, Zr, lam, A0, colf, loop, along, Kq_s, svd,
     energy form ``uᵀ Kq v``; the held wrench about the carried point adds ``[f] δ`` (as
     for :meth:`Hexapod.loaded_stiffness`).  Returns ``(K, C)`` over the compliant
     directions ``Uc`` (scaled displacements)."""
-    from closure.kinematics import _carrier_twists, bracket
+    from closure import carrier_twists
+    from closure.kinematics import bracket
     t = mechanism.tree
     b, n, r = Zr.shape
     Wt = np.broadcast_to(wrench, (b, 6))
@@ -589,9 +590,9 @@ def _loaded(mechanism, ks, idx, free, Zr, lam, A0, colf, loop, along, Kq_s, svd,
     # rates of every coordinate along each mode (true units)
     rates = np.zeros((b, r, t.nv))
     rates[:, :, free] = np.swapaxes(Zr * colf[:, None], 1, 2)
-    S = ks["S"][idx]                                       # (b, nv, 6)
-    Vc = _carrier_twists(mechanism, {"S": S, "carrier": ks["carrier"], "deps": ks["deps"]},
-                         rates)                            # (b, r, nv, 6)
+    S = ks.S[idx]                                          # (b, nv, 6)
+    Vc = carrier_twists(mechanism, {"S": S, "carrier": ks.carrier, "deps": ks.deps},
+                        rates)                             # (b, r, nv, 6)
     Wdot = bracket(Vc, S[:, None])[:, :, free]             # (b, r, n, 6)
     Hl = -np.einsum("bci,bcs,bjcs->bij", Zr * colf[:, None], Lam, Wdot)
     Hl += lam[:, :, None] * np.eye(r)
@@ -692,7 +693,7 @@ def mechanism_map(mechanism, pose, *, platform: str, springs: dict | None = None
     for a in range(0, good.size, MAP_CHUNK):
         idx = good[a:a + MAP_CHUNK]
         ks = mechanism.kinematic_state((pose.q[idx], pose.rot[idx]))
-        T = ks["link"][:, t.link_index[platform]]
+        T = ks.link[:, t.link_index[platform]]
         R = np.swapaxes(T[:, :3, :3], 1, 2)
         ref = T[:, :3, :3] @ c + T[:, :3, 3]
         res, fr = _stiffness(mechanism, ks, platform, roles, R, ref)

@@ -20,12 +20,17 @@ fit_chebyshev       one Chebyshev interpolant of f'' on [a, b], integrated twice
 choose              the cheapest surrogate (kinds KINDS) meeting a position or drive-force
                     tolerance, with the table it chose from
 TransferDynamics    the 1-DOF drive model of seed 004 (5) on either transfer function
+surrogate_dynamics  a multi-DOF engine model (loops driven by independent inputs) with every
+                    loop closure replaced by surrogates fitted from the engine's exact
+                    analogs (``closure.Dynamics.reduced``); LoopAnalogs, loop_inputs
 cylinder            the seed's oscillating-cylinder mechanism (closed form and engine)
+arm                 a three-cylinder manipulator arm (four loops, three inputs)
 """
-from . import cylinder
+from . import arm, cylinder
 from .analog import ApproxError, PiecewiseAnalog, TransferFunction
 from .dynamics import TransferDynamics
 from .engine import EngineAnalogs
+from .multiloop import LoopAnalogs, loop_inputs, surrogate_dynamics
 from .fit import MAX_ADAPTIVE, MAX_N, SIGMA_RULES, default_gamma, fit, fit_least_squares
 from .surrogate import (KINDS, MAX_DEGREE, ChebyshevAnalog, SplineAnalog, choose,
                         fit_chebyshev, fit_spline)
@@ -33,4 +38,5 @@ from .surrogate import (KINDS, MAX_DEGREE, ChebyshevAnalog, SplineAnalog, choose
 __all__ = ["fit", "fit_least_squares", "default_gamma", "PiecewiseAnalog", "EngineAnalogs",
            "TransferFunction", "TransferDynamics", "ApproxError", "cylinder", "MAX_N",
            "MAX_ADAPTIVE", "SIGMA_RULES", "SplineAnalog", "ChebyshevAnalog", "fit_spline",
-           "fit_chebyshev", "choose", "KINDS", "MAX_DEGREE"]
+           "fit_chebyshev", "choose", "KINDS", "MAX_DEGREE", "surrogate_dynamics",
+           "LoopAnalogs", "loop_inputs", "arm"]

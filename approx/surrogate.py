@@ -20,6 +20,12 @@ from f'' alone.  With e = F − f, e(a) = e'(a) = 0, so
 the integrals by Gauss–Legendre quadrature (16 points on each piece, or on 32 equal
 pieces for the global form); ``max_d2F`` is the largest |e''| at those nodes.
 
+A Chebyshev form of 12 or more terms evaluates large batches (256 points or more) from
+Taylor polynomials of degree 7 about the centres of equal pieces of [a, b], built on the
+first such batch with the fewest pieces (a power of two, at most 1024) that agree with
+the series to 1e-14 of each output's largest value; a batch then costs about the same at
+any degree (Clenshaw's recurrence grows with it).  Points beyond [a, b] use the series.
+
 :func:`choose` fits each kind at growing sizes and returns the cheapest one (fewest
 coefficients, or fastest evaluation) whose measured error meets a position or
 drive-force tolerance, with the table it chose from.
@@ -67,6 +73,78 @@ def _clenshaw(u, c):
     tmp -= b2
     tmp += cc[0]
     return tmp
+
+
+#: batches of at least this many points of a Chebyshev form of at least this many terms
+#: are evaluated from its Taylor pieces (below, Clenshaw's recurrence is as fast)
+_PW_MIN_POINTS, _PW_MIN_TERMS = 256, 12
+#: degree of the Taylor pieces, and the most pieces tried
+_PW_DEGREE, _PW_MAX_PIECES = 7, 1024
+
+
+def _taylor_pieces(c0, a, b):
+    """The Chebyshev series ``c0`` of F on [a, b] as Taylor polynomials of degree
+    _PW_DEGREE about the centres of P equal pieces, P the fewest (a power of two) whose
+    F, F', F'' agree with the series to 1e-14 of each one's largest value on the range
+    (measured at nine points of every piece); False when no P ≤ _PW_MAX_PIECES does.
+
+    Returns ``(a, P/(b − a), centres (P,), rows (3D, P))``: the descending
+    coefficients of F, then of F', then of F'' (Horner in ``s = x − centre``)."""
+    import math
+    D = _PW_DEGREE
+    half = 0.5 * (b - a)
+    ders = [np.asarray(c0, float)]
+    for _ in range(D):
+        ders.append(C.chebder(ders[-1]) / half if ders[-1].size > 1 else np.zeros(1))
+    fact = np.array([math.factorial(j) for j in range(D + 1)], float)
+    P = 1
+    while P <= _PW_MAX_PIECES:
+        h = (b - a) / P
+        mid = a + h * (np.arange(P) + 0.5)
+        u = (2 * mid - a - b) / (b - a)
+        tay = np.array([C.chebval(u, d) for d in ders]) / fact[:, None]     # (D+1, P)
+        rows = []
+        for w in range(3):                       # F^(w) = Σ_j j!/(j−w)! c_j s^(j−w)
+            j = np.arange(w, D + 1)
+            k = fact[j] / fact[j - w]
+            rows.append((tay[w:] * k[:, None])[::-1])
+        rows = np.concatenate(rows)
+        pw = (a, P / (b - a), mid, rows)
+        s = np.linspace(-0.5, 0.5, 9) * h
+        xs = np.clip((mid[:, None] + s).ravel(), a, b)
+        got = _eval_pieces(pw, xs, None)
+        u = (2 * xs - a - b) / (b - a)
+        ok = True
+        for w in range(3):
+            ref = C.chebval(u, ders[w])
+            if np.abs(got[w] - ref).max() > 1e-14 * max(np.abs(ref).max(), 1e-300):
+                ok = False
+                break
+        if ok:
+            return pw
+        P *= 2
+    return False
+
+
+def _eval_pieces(pw, x, which):
+    """F, F', F'' (or one of them) from Taylor pieces ``pw`` at x (within [a, b])."""
+    a, scale, mid, rows = pw
+    D = _PW_DEGREE
+    i = ((x - a) * scale).astype(np.intp)
+    np.clip(i, 0, mid.size - 1, out=i)
+    s = x - np.take(mid, i)
+    start = [0, D + 1, 2 * D + 1]
+    ws = (0, 1, 2) if which is None else (which,)
+    out = []
+    for w in ws:
+        lo, n = start[w], D + 1 - w
+        c = np.take(rows[lo:lo + n], i, axis=1)
+        r = c[0].copy()
+        for j in range(1, n):
+            r *= s
+            r += c[j]
+        out.append(r)
+    return tuple(out) if which is None else out[0]
 
 
 def _check_bool(v, name):
@@ -154,6 +232,11 @@ class SplineAnalog(_Surrogate):
         self._cols = np.ascontiguousarray(self.coef.T)
         self._inner = self.knots[1:-1]
         self._inner_list = self._inner.tolist()
+        self._knot_list = self.knots.tolist()
+        # per interval, the descending coefficients of F, F', F'' as Python floats (the
+        # scalar path: Horner without array calls)
+        self._rows = [tuple(self._d[w][i, ::-1].tolist() for w in range(3))
+                      for i in range(self.coef.shape[0])]
         self.a, self.b_end = float(self.knots[0]), float(self.knots[-1])
         self.error = error or {}
         self.bc, self.extrapolate = bc, extrapolate
@@ -180,12 +263,12 @@ class SplineAnalog(_Surrogate):
         v = self._scalar(x)
         if v is not None and (self.extrapolate or self.a <= v <= self.b_end):
             i = bisect.bisect_right(self._inner_list, v)
-            t = v - self.knots[i]
+            t = v - self._knot_list[i]
+            rows = self._rows[i]
             out = []
             for w in ((0, 1, 2) if which is None else (which,)):
-                c = self._d[w][i].tolist()
-                r = c[-1]
-                for cj in c[-2::-1]:
+                r = 0.0
+                for cj in rows[w]:
                     r = r * t + cj
                 out.append(r)
             return tuple(out) if which is None else out[0]
@@ -234,6 +317,8 @@ class ChebyshevAnalog(_Surrogate):
         self.extrapolate = extrapolate
         self._s, self._o = 2.0 / (self.b_end - self.a), (self.a + self.b_end) / (self.a - self.b_end)
         self._cols = [self.coef[:, k].tolist() for k in range(3)]
+        self._pw = None                  # the piecewise form for batches (built when first used)
+        self._pw_list = self._pw_mid = None
 
     @property
     def size(self) -> int:
@@ -250,6 +335,17 @@ class ChebyshevAnalog(_Surrogate):
 
     def _eval(self, x, which):
         v = self._scalar(x)
+        if v is not None and self._pw_list is not None and self.a <= v <= self.b_end:
+            i = min(int((v - self.a) * self._pw[1]), len(self._pw_list) - 1)
+            t = v - self._pw_mid[i]
+            rows = self._pw_list[i]
+            out = []
+            for w in ((0, 1, 2) if which is None else (which,)):
+                r = 0.0
+                for cj in rows[w]:
+                    r = r * t + cj
+                out.append(r)
+            return tuple(out) if which is None else out[0]
         if v is not None and (self.extrapolate or self.a <= v <= self.b_end):
             u = v * self._s + self._o
             u2 = 2 * u
@@ -262,6 +358,18 @@ class ChebyshevAnalog(_Surrogate):
                 out.append(c[0] + u * b1 - b2)
             return tuple(out) if which is None else out[0]
         x = self._check(x)
+        if x.size >= _PW_MIN_POINTS and self.coef.shape[0] >= _PW_MIN_TERMS:
+            if self._pw is None:
+                self._pw = _taylor_pieces(self.coef[:, 0], self.a, self.b_end)
+                if self._pw is not False:        # the scalar path uses the pieces too
+                    rows, D = self._pw[3], _PW_DEGREE
+                    cut = [0, D + 1, 2 * D + 1, 3 * D]
+                    self._pw_list = [tuple(rows[cut[w]:cut[w + 1], i].tolist()
+                                           for w in range(3)) for i in range(rows.shape[1])]
+                    self._pw_mid = self._pw[2].tolist()
+            if self._pw is not False and (not self.extrapolate or (
+                    x.min() >= self.a and x.max() <= self.b_end)):
+                return _eval_pieces(self._pw, x, which)
         u = x * self._s + self._o
         if which is None:
             r = _clenshaw(u, self.coef)          # (3,) + x.shape
@@ -387,7 +495,9 @@ def fit_chebyshev(f, df, d2f, a: float, b: float, *, degree: int,
     coef = np.zeros((m + 3, 3))
     coef[:, 0], coef[:m + 2, 1], coef[:m + 1, 2] = c0, c1, c2
     ch = ChebyshevAnalog(a, b, coef, m, extrapolate=True)
-    ch.error = _error_estimate(ch.acceleration, d2f, np.linspace(a, b, 33))
+    # (by the series itself: the Taylor pieces of large batches are built when first used)
+    ch.error = _error_estimate(lambda v: _clenshaw(v * ch._s + ch._o, coef[:, 2:3])[0], d2f,
+                               np.linspace(a, b, 33))
     ch.extrapolate = extrapolate
     return ch
 

@@ -16,8 +16,10 @@ transform, inverse, exp_se3, log_se3, rot_x, rot_y, rot_z, rotation, skew
 MechanismError       bad input (a ValueError)
 ClosureError         the loops could not be closed (carries the figures)
 Dynamics, Body       closure.dynamics: pseudo-inertias, inverse and forward dynamics
+ReducedDynamics      the same model with each loop replaced by transfer functions
+                     (``Dynamics.reduced``; surrogates from approx.surrogate_dynamics)
 """
-from .dynamics import Body, Dynamics, pseudo_inertia
+from .dynamics import Body, Dynamics, ReducedDynamics, pseudo_inertia
 from .errors import ClosureError, MechanismError
 from .frames import (ad, adjoint, cross, euler_zxz, exp_se3, exp_so3, frame_from_points, hat, inverse,
                      log_se3, log_so3, rot_x, rot_y, rot_z, rotation, skew, transform,
@@ -34,6 +36,6 @@ __all__ = [
     "ClosureError", "solve", "sweep", "analogs", "joint_analogs", "point_analogs",
     "frame_from_points", "transform", "translation", "inverse", "exp_se3", "log_se3",
     "exp_so3", "log_so3", "rot_x", "rot_y", "rot_z", "rotation", "skew", "hat", "vee",
-    "adjoint", "ad", "euler_zxz", "Dynamics", "Body", "pseudo_inertia", "cross",
+    "adjoint", "ad", "euler_zxz", "Dynamics", "ReducedDynamics", "Body", "pseudo_inertia", "cross",
     "KinematicState", "carrier_twists", "link_twists",
 ]

@@ -50,13 +50,16 @@ def _parser():
              "approx": "1-DOF mechanism or closed form → piecewise-linear analog tables",
              "analyze": "mechanism and input range → sweep table, point paths, drive forces"}
     helps["run"] = "a study file of any kind: the command is read from its [study].command"
+    helps["draw"] = ("an analyze or synth study → 3D drawings (PNG) and an offline animation "
+                     "(HTML) of its mechanism or best variants")
     for name, text in helps.items():
         s = sub.add_parser(name, help=text, description=text + ". The study file is checked "
                            "against the schema first (`linkwright schema " +
-                           (name if name != "run" else "CMD") + "`): an unknown key, a wrong "
+                           (name if name not in ("run", "draw") else "CMD") + "`): an unknown key, a wrong "
                            "type or a value out of range exits 2 naming the file and the key.")
         s.add_argument("study", help="the study file (TOML)")
-        s.add_argument("-o", "--out", help="output folder (default: linkwright-out/<study>)")
+        s.add_argument("-o", "--out", help="output folder (default: linkwright-out/<study>" +
+                       ("-drawings)" if name == "draw" else ")"))
         s.add_argument("--quiet", action="store_true", help=QUIET_HELP)
         s.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     sc = sub.add_parser("schema", help="print the reference of a study kind: every key "
@@ -165,6 +168,16 @@ def _dispatch(args, state: dict) -> int:
             written = out.commit()
             summary["files"] = [str(p) for p in written]
             args.command = study.command
+        elif args.command == "draw":
+            from .cmd_draw import run as run_draw
+            from .study import load_study
+            study = load_study(args.study, None)
+            out = state["out"] = Outputs(args.out or Path("linkwright-out") /
+                                         (Path(args.study).stem + "-drawings"), "draw")
+            out.check()
+            with one_line_warnings(args.study):
+                summary = run_draw(study, out, Progress(args.quiet))
+            summary["files"] = [str(p) for p in out.commit()]
         elif args.command == "demo":
             from .cmd_demo import run_demo
             out = state["out"] = Outputs(args.out, "demo")

@@ -1,0 +1,168 @@
+"""``linkwright draw``: the drawings (PNG) and the offline animation (HTML) of a study.
+
+``analyze`` studies: the mechanism at its sweep's closed poses with the point paths
+(``mechanism.png``, ``mechanism.html``; the animation subsampled to at most 120 frames).
+``synth`` studies: each of the best few variants driven by the engine to its joint values
+at every task position, the body's given frames drawn beside the reached ones
+(``variant<N>.png``, ``variant<N>.html``).
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from closure import REACHED, Mechanism, transform
+
+from .draw import html_animation, scene, subsample
+from .draw import draw as draw_scene
+from .output import Outputs
+from .render import figure_png
+from .study import Study
+
+__all__ = ["run", "analyze_scene", "synth_scenes", "BEST", "FRAMES"]
+
+#: how many of the best-ranked synthesis variants are drawn
+BEST = 3
+#: largest number of frames of an animation
+FRAMES = 120
+
+
+def analyze_scene(study: Study):
+    """The scene of an ``analyze`` study: its mechanism at the sweep's closed poses."""
+    from .mechspec import build_mechanism, sweep_values
+    mech = build_mechanism(study.section("mechanism"))
+    x = sweep_values(study.section("sweep"), mech)
+    df, poses = mech.sweep(x, return_pose=True)
+    ok = df.status.isin(REACHED).to_numpy()
+    if not ok.any():
+        raise study.error("sweep", "no pose of the sweep closed: nothing to draw")
+    points = {}
+    for p in study.sections("point", required=False):
+        link = p.get("link", "str")
+        if link not in mech.links:
+            raise p.error("link", f"unknown link {link!r}; links: {', '.join(mech.links)}")
+        points[p.get("name", "str")] = (link, p.get("at", "vec3"))
+    title = study.data.get("study", {}).get("title", study.path.stem)
+    return mech, poses, scene(mech, poses, points=points, title=title)
+
+
+def _chain_of(row):
+    """Joint kinds, Z-along-axis frames and the driven values ``(P, n_inputs)`` of a variant
+    row (``None`` where its joints cannot all be driven: S and U are not drawn yet)."""
+    kinds = [row[f"j{k}_type"] for k in (1, 2, 3)]
+    if any(t not in "RPCH" for t in kinds):
+        return None
+    frames = []
+    for k in (1, 2, 3):
+        u = np.array([row[f"j{k}_u{c}"] for c in "xyz"], float)
+        p = np.array([row[f"j{k}_{c}"] for c in "xyz"], float)
+        u = u / np.linalg.norm(u)
+        a = np.array([1.0, 0, 0]) if abs(u[0]) < 0.9 else np.array([0, 1.0, 0])
+        x = a - (a @ u) * u
+        x /= np.linalg.norm(x)
+        frames.append(transform(np.stack([x, np.cross(u, x), u], -1), p))
+    return kinds, frames
+
+
+def _values(row, kinds, n):
+    cols = []
+    for k, t in enumerate(kinds, start=1):
+        q = [row.get(f"q{k}_pos{p}", np.nan) for p in range(1, n + 1)]
+        d = [row.get(f"d{k}_pos{p}", np.nan) for p in range(1, n + 1)]
+        if t == "P":
+            cols.append(d if np.all(np.isfinite(np.asarray(d, float))) else q)
+        else:
+            cols.append(q)
+            if t == "C":
+                cols.append(d)
+    return np.asarray(cols, float).T
+
+
+def synth_scenes(study: Study, best: int = BEST):
+    """The scenes of a ``synth`` study: the best ``best`` variants at every task position.
+
+    Returns
+    -------
+    list of (variant, Scene, targets (P, 4, 4)); and the number of ranked variants not
+    drawn because their joints cannot all be driven (S, U).
+    """
+    from synthesis import Screw, SynthesisError, enumerate_dyads
+    from synthesis.validate import task_scale
+
+    from .cmd_synth import _axis, _degenerate, rank_variants
+    sec = study.section("synthesis")
+    family = sec.get("family", "str")
+    positions = study.sections("position")
+    screws = []
+    for p in positions:
+        try:
+            screws.append(Screw.from_degrees(_axis(p), p.get("point", "vec3"),
+                                             p.get("angle_deg", low=-360, high=360),
+                                             p.get("slide")))
+        except SynthesisError as e:
+            raise p.error("axis", str(e)) from None
+    _degenerate(study, positions, screws)
+    try:
+        df = enumerate_dyads(family, screws)
+    except SynthesisError as e:
+        raise study.error("synthesis.family" if "family" in str(e) else "position", str(e)) \
+            from None
+    T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
+    _, extent, reach = task_scale(list(T), [s.axis for s in screws], [s.point for s in screws])
+    size = extent if extent > 0 else (reach if reach > 0 else 1.0)
+    crit = study.section("criterion", required=False)
+    kind = crit.get("kind", "str", "link_length") if crit else "link_length"
+    center = crit.get("center", "vec3", np.zeros(3)) if crit else np.zeros(3)
+    ranked = rank_variants(df, kind, center, size, len(T))
+    rows = ranked[ranked["rank"].notna()].sort_values("rank")
+    out, skipped = [], 0
+    for _, row in rows.iterrows():
+        if len(out) == best:
+            break
+        chain = _chain_of(row)
+        if chain is None:
+            skipped += 1
+            continue
+        kinds, frames = chain
+        m = Mechanism(["A", "B", "body"])
+        links = ["ground", "A", "B", "body"]
+        for k, t in enumerate(kinds):
+            pitch = float(row[f"j{k + 1}_pitch"]) if t == "H" else None
+            m.add_joint(f"j{k + 1}", t, links[k], links[k + 1], at=frames[k], pitch=pitch)
+            m.add_input(f"j{k + 1}", 0)
+            if t == "C":
+                m.add_input(f"j{k + 1}", 1)
+        pose = m.solve(_values(row, kinds, len(T)), continuation=False)
+        v = int(row.variant)
+        scn = scene(m, pose, points={"body origin": ("body", np.zeros(3))},
+                    frames={"body": pose.link_frame("body")},
+                    fixed_frames={"given": T},
+                    labels=[f"position {p + 1}" for p in range(len(T))],
+                    title=f"{family} variant {v} (rank {int(row['rank'])}) at the "
+                          f"{len(T)} task positions")
+        out.append((v, scn, T))
+    return out, skipped
+
+
+def run(study: Study, out: Outputs, progress) -> dict:
+    """Write the drawings and animations of an ``analyze`` or ``synth`` study."""
+    if study.command == "analyze":
+        progress("sweeping and drawing the mechanism")
+        _, _, scn = analyze_scene(study)
+        out.add("mechanism.png", figure_png(draw_scene(scn), dpi=110))
+        idx = subsample(len(scn), FRAMES)
+        out.add("mechanism.html", html_animation(scn.take(idx), limit=FRAMES))
+        return {"command": "draw", "study": "analyze", "poses": len(scn),
+                "frames": int(len(idx))}
+    if study.command == "synth":
+        progress("synthesising and drawing the best variants")
+        scenes, skipped = synth_scenes(study)
+        if not scenes:
+            raise study.error("synthesis.family", "no ranked variant can be drawn yet (the "
+                              "drawings drive R, P, C and H joints; S and U come later)")
+        for v, scn, _ in scenes:
+            out.add(f"variant{v}.png", figure_png(draw_scene(scn), dpi=110))
+            out.add(f"variant{v}.html", html_animation(scn, limit=FRAMES))
+        return {"command": "draw", "study": "synth", "variants": [v for v, _, _ in scenes],
+                "not_drawn": skipped}
+    raise study.error("study.command", f"linkwright draw draws analyze and synth studies; "
+                      f"this is a {study.command} study (its drawings come later)")

@@ -1,0 +1,194 @@
+"""Drawings and animations of mechanisms (linkwright.draw, ``linkwright draw``): the drawn
+geometry is the engine's, the page is offline and well formed, the command writes its files
+and rejects bad input with exit status 2."""
+from __future__ import annotations
+
+import json
+import re
+import shutil
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from linkwright.cli import main
+from linkwright.study import load_study
+
+EX = Path(__file__).resolve().parents[2] / "linkwright" / "examples"
+
+
+def _analyze(name="seed000_swash_plate.toml"):
+    from linkwright.cmd_draw import analyze_scene
+    return analyze_scene(load_study(EX / name, None))
+
+
+def test_joint_positions_are_the_pose_joint_frames():
+    """Every frame's joint origin and axis equal link frame × joint placement (independent
+    of the engine's stored joint frames) to 1e-12; the U and S joints of the swash plate
+    included, and the frame on link b too."""
+    mech, poses, scn = _analyze()
+    assert len(scn) == len(poses) and {j["kind"] for j in scn.joints} >= {"R", "U", "S"}
+    for k, j in enumerate(mech.joints):
+        Ta = np.asarray(poses.link_frame(j.link_a)) @ j.frame_a
+        Tb = np.asarray(poses.link_frame(j.link_b)) @ j.frame_b
+        assert np.abs(scn.position[:, k] - Ta[:, :3, 3]).max() < 1e-12
+        assert np.abs(scn.axis[:, k] - Ta[:, :3, 2]).max() < 1e-12
+        assert np.abs(scn.position_b[:, k] - Tb[:, :3, 3]).max() < 1e-12
+        assert np.abs(scn.axis_b[:, k] - Tb[:, :3, 2]).max() < 1e-12
+        assert scn.joints[k]["ground"] == (mech.ground in (j.link_a, j.link_b))
+
+
+def test_point_paths_and_html_frames_match_the_engine():
+    from linkwright.draw import html_animation, subsample
+    mech, poses, scn = _analyze("fourbar_dynamics.toml")
+    P = np.asarray(poses.point("coupler", [1.5, 1.5, 0.0]))
+    assert np.abs(scn.paths["coupler_mid"] - P).max() < 1e-12
+    page = html_animation(scn, limit=10)
+    data = json.loads(re.search(r'<script id="scene-data" type="application/json">(.*?)'
+                                r"</script>", page, re.S).group(1).replace("<\\/", "</"))
+    idx = subsample(len(scn), 10)
+    assert len(data["frames"]) == len(idx) <= 10 and idx[0] == 0 and idx[-1] == len(scn) - 1
+    for f, i in zip(data["frames"], idx):       # the page's joints are the engine's
+        for k, j in enumerate(mech.joints):
+            Ta = np.asarray(poses.link_frame(j.link_a))[i] @ j.frame_a
+            assert np.abs(np.array(f["position"][k]) - Ta[:3, 3]).max() < 1e-12
+            assert np.abs(np.array(f["axis"][k]) - Ta[:3, 2]).max() < 1e-12
+
+
+def test_html_is_offline_and_parses():
+    from linkwright.draw import html_animation
+    _, _, scn = _analyze()
+    page = html_animation(scn)
+    assert not re.search(r"https?:|//cdn|<link|src=", page, re.I)
+
+    class P(HTMLParser):
+        def __init__(self):
+            super().__init__()
+            self.tags, self.open = [], []
+
+        def handle_starttag(self, tag, attrs):
+            self.tags.append(tag)
+
+    p = P()
+    p.feed(page)
+    p.close()
+    assert {"html", "canvas", "script", "input"} <= set(p.tags)
+    data = json.loads(re.search(r'type="application/json">(.*?)</script>', page, re.S)
+                      .group(1).replace("<\\/", "</"))
+    assert len(data["frames"]) == len(scn) == 37
+
+
+def test_rrr_variant_body_frames_are_the_task_poses():
+    from linkwright.cmd_draw import synth_scenes
+    scenes, skipped = synth_scenes(load_study(EX / "seed001_rrr.toml", None), best=2)
+    assert len(scenes) == 2 and skipped == 0
+    for _, scn, T in scenes:
+        assert len(scn) == 4 and np.abs(scn.fixed_frames["given"] - T).max() == 0
+        assert np.abs(scn.frames["body"] - T).max() < 1e-9
+        # the body's joint (j3) moves with the body: its frame is the body's pose × placement
+        assert np.abs(scn.position_b[:, 2] - (T[:, :3, :3] @ scn.position_b[0, 2])
+                      - T[:, :3, 3]).max() < 1e-9
+
+
+def test_draw_figure_has_equal_scales():
+    from linkwright.draw import draw
+    _, _, scn = _analyze("fourbar_dynamics.toml")
+    fig = draw(scn)
+    ax = fig.axes[0]
+    spans = [np.ptp(ax.get_xlim()), np.ptp(ax.get_ylim()), np.ptp(ax.get_zlim())]
+    assert np.allclose(spans, spans[0])
+    import matplotlib.pyplot as plt
+    plt.close(fig)
+
+
+def test_draw_command_on_the_examples(tmp_path, capsys):
+    assert main(["examples", "-o", str(tmp_path / "ex")]) == 0
+    assert main(["draw", str(tmp_path / "ex" / "fourbar_dynamics.toml"), "-o",
+                 str(tmp_path / "a"), "--quiet"]) == 0
+    assert (tmp_path / "a" / "mechanism.png").read_bytes()[:4] == b"\x89PNG"
+    assert "<canvas" in (tmp_path / "a" / "mechanism.html").read_text()
+    capsys.readouterr()
+    assert main(["draw", str(tmp_path / "ex" / "seed001_rrr.toml"), "-o", str(tmp_path / "s"),
+                 "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["variants"] and all(Path(f).exists() for f in summary["files"])
+    assert {Path(f).suffix for f in summary["files"]} == {".png", ".html"}
+
+
+@pytest.mark.parametrize("name", ["hexapod.toml", "missing.toml"])
+def test_draw_bad_input_exits_2_naming_the_file(name, tmp_path, capsys):
+    study = (EX / name) if (EX / name).exists() else tmp_path / name
+    assert main(["draw", str(study), "-o", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert str(study) in err and ("stiffness study" in err or "file not found" in err)
+    assert not (tmp_path / "o").exists()
+
+
+@pytest.mark.skipif(shutil.which("chromium") is None, reason="Debian chromium not installed")
+def test_html_in_a_real_browser(tmp_path):
+    """Headless Chromium: the page loads without console errors and another slider position
+    (``#frame=N``, which sets the slider) draws other pixels."""
+    from PIL import Image
+
+    from linkwright.draw import html_animation
+    _, _, scn = _analyze("fourbar_dynamics.toml")
+    page = tmp_path / "m.html"
+    page.write_text(html_animation(scn))
+    shots = []
+    for frame in (0, len(scn) - 1):
+        png = tmp_path / f"f{frame}.png"
+        r = subprocess.run(["chromium", "--headless", "--no-sandbox", "--disable-gpu",
+                            "--enable-logging=stderr", "--window-size=800,700",
+                            f"--screenshot={png}", page.as_uri() + f"#frame={frame}"],
+                           capture_output=True, text=True, timeout=60)
+        assert png.exists(), r.stderr
+        assert "Uncaught" not in r.stderr
+        shots.append(np.asarray(Image.open(png).convert("RGB"), int))
+    assert np.abs(shots[0] - shots[1]).sum() > 0
+
+
+_STUB = r"""
+// run the page's inline script with a recording canvas: print the drawing calls of two frames
+const fs = require("fs");
+const html = fs.readFileSync(process.argv[2], "utf8");
+const data = /<script id="scene-data" type="application\/json">([\s\S]*?)<\/script>/.exec(html)[1];
+const code = /<script>\n([\s\S]*?)<\/script>/.exec(html)[1];
+let calls = [];
+const ctx = new Proxy({}, {get: (t, k) => (k in t ? t[k] : (...a) => calls.push([k, ...a])),
+                           set: (t, k, v) => { t[k] = v; return true; }});
+const handlers = {};
+function el(id) {
+  return {id, textContent: id === "scene-data" ? data : "", width: 720, height: 540, value: 0, max: 0,
+    getContext: () => ctx, setPointerCapture() {},
+    addEventListener: (ev, f) => { handlers[id + ":" + ev] = f; }};
+}
+const els = {};
+global.document = {getElementById: (id) => (els[id] = els[id] || el(id))};
+global.location = {hash: ""};
+new Function(code)();
+const first = JSON.stringify(calls); calls = [];
+els.slider.value = String(+els.slider.max);
+handlers["slider:input"].call(els.slider);
+const last = JSON.stringify(calls);
+console.log(JSON.stringify({n: first.length, changed: first !== last, label: els.label.textContent,
+                            max: els.slider.max}));
+"""
+
+
+@pytest.mark.skipif(shutil.which("node") is None, reason="node not installed")
+def test_page_script_runs_and_the_slider_redraws(tmp_path):
+    """The page's inline script under node with a recording canvas: it runs without an
+    error, the slider spans every frame, moving it draws other coordinates."""
+    from linkwright.draw import html_animation
+    _, _, scn = _analyze()
+    page = tmp_path / "m.html"
+    page.write_text(html_animation(scn))
+    (tmp_path / "stub.js").write_text(_STUB)
+    r = subprocess.run(["node", str(tmp_path / "stub.js"), str(page)], capture_output=True,
+                       text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    out = json.loads(r.stdout)
+    assert out["changed"] and int(out["max"]) == len(scn) - 1
+    assert out["label"].startswith(f"frame {len(scn)} of {len(scn)}")

@@ -17,16 +17,17 @@ CC          4          ``azimuth`` (rad: the admissible fixed directions in that
                        through z, up to three, or ``fixed_direction`` on the admissible
                        curve, see :func:`cc_direction_residual`) and ``fixed_point``
                        (length: the fixed axis of the 1-parameter parallel family nearest it)
-CC          5          none: every solution is returned
+CC          5          none: every solution is returned (the directions are the 6
+                       complex eigenpairs of a 6 × 6 pencil, :func:`cc5_directions`)
 ==========  =========  ===========================================================
 """
 from __future__ import annotations
 
 import numpy as np
 
-from .binary import (BinaryLink, _angles, _batched_lm, _check_rotations, _fibonacci, _finish,
-                     _local_minima, _same, _system, _tangent_batch, _task)
+from .binary import BinaryLink, _angles, _check_rotations, _finish, _same, _system, _task
 from .errors import SynthesisError
+from .rmep import solve_bilinear
 from .screw import Line
 from .validate import integer, line as _line, number, screw as _screw, unit, vec3
 
@@ -269,8 +270,9 @@ def cc_links(screws, *, fixed_axis: Line | None = None, fixed_direction=None, fi
         nearest this point is taken (a point of an admissible axis, e.g. the generating
         link's, gives that axis exactly).
     samples : int
-        Five positions: fixed-axis directions sampled on the hemisphere (≥ 100) before
-        refinement of the direction equations.
+        Not used any more (≥ 100 is still checked, so existing calls keep working): the
+        five-position directions are solved exactly, as the eigenpairs of a 6 × 6
+        generalised eigenproblem, not sampled.
     tol : float
         Largest pose error accepted (rad, or translation relative to the task's reach).
 
@@ -338,45 +340,59 @@ def cc_links(screws, *, fixed_axis: Line | None = None, fixed_direction=None, fi
     # five positions: the directions are isolated
     if fixed_direction is not None or fixed_point is not None or azimuth is not None:
         raise SynthesisError("fixed_direction, fixed_point, azimuth: not free for five positions")
-    samples = integer(samples, "samples", low=100)
-    return _cc5(task, samples, tol)
+    integer(samples, "samples", low=100)            # no longer used (see the parameter's notes)
+    return _cc5(task, tol)[0]
 
 
-def _directions5(g, R):
-    """The 4x3 direction conditions ``(R_j − I)ᵀ g`` as rows, their smallest singular value
-    and the null direction w, for ``g (N, 3)``."""
-    B = np.einsum("mji,nj->nmi", R - np.eye(3), g)
-    _, s, Vt = np.linalg.svd(B)
-    return s, Vt[:, -1]
+def cc5_directions(task):
+    """Every direction pair (g, w) of a CC link through five positions (normalised task).
+
+    The directions satisfy ``gᵀ (R_j − I) w = 0`` for j = 2…5: four bilinear equations,
+    i.e. the 4 × 3 matrix with rows ``gᵀ (R_j − I)`` drops rank (the spherical
+    five-orientation Burmester problem).  Generically it has exactly 6 solutions over
+    the complex numbers (Murray & McCarthy); all of them are the eigenpairs of one 6 × 6
+    generalised eigenproblem (:func:`synthesis.rmep.solve_bilinear`), so none is missed.
+
+    Returns
+    -------
+    g, w : numpy.ndarray, complex, shape (6, 3)
+        Fixed and moving directions (each scaled so its largest entry is 1).
+    real : numpy.ndarray of bool, shape (6,)
+    residual : numpy.ndarray, shape (6,)
+        ``|gᵀ (R_j − I) w|`` after polishing, for the scaled vectors.
+    """
+    A = np.transpose(task.R - np.eye(3), (1, 0, 2))          # A_i[j, c] = (R_j − I)[i, c]
+    sol = solve_bilinear(A)
+    return sol.lam, sol.x, sol.real, sol.residual
 
 
-def _cc5(task, samples, tol):
-    R = task.R
-    G = _fibonacci(samples)
-    s, _ = _directions5(G, R)
-    merit = s[:, -1] / np.maximum(s[:, 0], 1e-300)
-    idx = _local_minima(G, merit)
-    gof = _tangent_batch(G[idx])
-    _, w0 = _directions5(G[idx], R)
+def _cc5(task, tol):
+    """All real CC links through five positions: every real direction pair of
+    :func:`cc5_directions`, then the moments from the (square) translation equations.
 
-    def F(u, rows):
-        g = gof(u, rows)
-        B = np.einsum("mji,nj->nmi", R - np.eye(3), g)
-        _, _, Vt = np.linalg.svd(B)
-        w = Vt[:, -1] * np.sign(np.sum(Vt[:, -1] * w0[rows], -1))[:, None]
-        return np.einsum("nmi,ni->nm", B, w)
-
-    u, res = _batched_lm(F, np.zeros((len(idx), 2)))
+    Returns the links and a dict: ``complex`` (direction pairs found over the complex
+    numbers that satisfy the equations), ``real`` (of them real), ``rejected`` (real pairs
+    that give no CC link: parallel axes or singular translation equations, or a pose
+    error above ``tol``), ``unsolved`` (eigenpairs whose equation residual stayed above
+    1e-9 after polishing)."""
+    g, w, real, res = cc5_directions(task)
+    good = res <= 1e-9
+    g = g[real & good].real
+    w = w[real & good].real
+    g /= np.linalg.norm(g, axis=1, keepdims=True)
+    w /= np.linalg.norm(w, axis=1, keepdims=True)
     out: list[BinaryLink] = []
-    for k in np.flatnonzero(res < 1e-11):
-        g = gof(u[k:k + 1], [k])
-        s, w = _directions5(g, R)
-        if s[0, -2] < 1e-6 * s[0, 0]:
-            continue                                 # rank < 2: moving direction not determined
+    rejected = 0
+    for k in range(len(g)):
         try:
-            link = _from_directions(task, "CC", (0.0, 0.0), g, w, what="screws")[0]
+            link = _from_directions(task, "CC", (0.0, 0.0), g[k:k + 1], w[k:k + 1],
+                                    what="screws")[0]
         except SynthesisError:
+            rejected += 1        # parallel axes or singular translation equations: no CC link
             continue
-        if link.residual <= tol and not any(_same(link, o, task.L) for o in out):
+        if link.residual > tol:
+            rejected += 1
+        elif not any(_same(link, o, task.L) for o in out):
             out.append(link)
-    return out
+    return out, {"complex": int(good.sum()), "real": int((real & good).sum()),
+                 "rejected": rejected, "unsolved": int((~good).sum())}

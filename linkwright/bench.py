@@ -493,8 +493,23 @@ def bench_mechanism(quick: bool = False) -> list[str]:
     ]
 
 
+def _lazy(module: str, function: str) -> Callable[[bool], list[str]]:
+    """A benchmark kept in its own module, imported only when it runs."""
+    def run(quick: bool = False) -> list[str]:
+        import importlib
+        return getattr(importlib.import_module(f"linkwright.{module}"), function)(quick)
+    run.__name__ = function
+    return run
+
+
 BENCHES = {"closure": bench_closure, "synthesis": bench_synthesis, "stiffness": bench_stiffness,
-           "mechanism": bench_mechanism, "approx": bench_approx, "dynamics": bench_dynamics}
+           "mechanism": bench_mechanism, "approx": bench_approx, "dynamics": bench_dynamics,
+           "engine": _lazy("bench_closure_speed", "bench_closure_speed"),
+           "links": _lazy("bench_links", "bench_links"),
+           "families": _lazy("bench_families", "bench_families"),
+           "complete": _lazy("bench_complete", "bench_complete"),
+           "kernels": _lazy("bench_stiffness_speed", "bench_stiffness_speed"),
+           "surrogate-dynamics": _lazy("bench_approx_dynamics", "bench_surrogate_dynamics")}
 
 
 def stream(modules=None, quick: bool = False) -> Iterator[tuple[str, str, Exception | None]]:

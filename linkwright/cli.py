@@ -86,7 +86,8 @@ def _parser():
                                        "(or empty) folder")
     e.add_argument("--json", action="store_true")
     b = sub.add_parser("bench", help="speed-against-error tables of all modules")
-    b.add_argument("modules", nargs="*", help="closure, synthesis, stiffness, mechanism, approx, dynamics")
+    b.add_argument("modules", nargs="*", help="closure, synthesis, stiffness, mechanism, approx, dynamics, engine, links, "
+                   "families, complete, kernels, surrogate-dynamics (default: all)")
     b.add_argument("--quick", action="store_true", help="smaller problem sizes")
     b.add_argument("-o", "--out", help="also write the tables to OUT/bench.md")
     b.add_argument("--quiet", action="store_true", help="no progress bar on stderr (the "

@@ -25,11 +25,12 @@ vector or a grid; the table has a column per parameter):
   one per joint, ignored at non-helical joints).  Required for families with H.
 * ``slide_direction`` (unit 3-vector or (m, 3)): the main link's prismatic slide
   direction (PR, PH, PC: in the ground; RP, HP, CP: in the body at position 1).  Default:
-  4 directions spread over a hemisphere.
+  4 directions spread over a hemisphere of the task's frame
+  (:func:`synthesis.spherical.task_frame`: they turn with the task).
 * ``prismatic_slide`` (length, scalar or (m,)): the main PC/CP link's prismatic slide from
   position 1 to its other main position.  Default: ±0.5 × the task's reach.
 * ``fixed_direction`` (unit 3-vector or (m, 3)): the main RC, CR, HC or CH link's fixed
-  axis direction.  Default: 4 directions spread over a hemisphere.
+  axis direction.  Default: the same 4 directions of the task's frame.
 * ``transition_angle`` (rad, scalar or (m,)): J3's rotation while an R transition joint
   carries a C joint (from the transition position to the remaining one).  Default:
   −1.5, −0.5, 0.5, 1.5.
@@ -46,6 +47,7 @@ from closure import Mechanism
 from .binary import BinaryLink, _fibonacci, _screw_matrix
 from .errors import SynthesisError
 from .screw import Line
+from .spherical import task_frame
 from .transition import TRANSITION_POSITIONS, transition_joint
 from .twopos import two_position_link
 from .validate import array, task_scale
@@ -282,10 +284,12 @@ def decomposed_dyads(family: str, screws, **choices) -> pd.DataFrame:
         raise SynthesisError(f"{', '.join(sorted(unknown))}: unknown choice; expected "
                              f"{', '.join(FREE_PARAMETERS)}")
     pitches = _pitches(family, choices.get("pitch"))
+    # default direction grids live in the task's own frame, so they move with the task
+    dirs = _fibonacci(4) @ task_frame(screws).T
     ch = {"fixed_direction": _grid_vectors(choices.get("fixed_direction"), "fixed_direction",
-                                           _fibonacci(4)),
+                                           dirs),
           "slide_direction": _grid_vectors(choices.get("slide_direction"), "slide_direction",
-                                           _fibonacci(4)),
+                                           dirs),
           "prismatic_slide": _grid_numbers(choices.get("prismatic_slide"), "prismatic_slide",
                                            [-0.5 * reach, 0.5 * reach]),
           "transition_angle": _grid_numbers(choices.get("transition_angle"), "transition_angle",

@@ -441,3 +441,27 @@ def test_hooke_families_recover_the_generating_chain(family):
     b = ok[["u_cross_x", "u_cross_y", "u_cross_z"]].to_numpy(float)
     A = ok[[f"j{ku}_ux", f"j{ku}_uy", f"j{ku}_uz"]].to_numpy(float)
     assert np.abs(np.einsum("ij,ij->i", A, b)).max() < 1e-9
+
+
+@pytest.mark.parametrize("family", ["RPR", "RCR", "PRR"])
+def test_default_grids_move_with_the_task(family):
+    """With the default grids (slide and fixed directions), a task moved by a rigid motion far
+    from the origin gives the same variants moved by that motion."""
+    rng = np.random.default_rng(7)
+    n = sorted({a[3] + a[4] for a in arrangements(family)})[0]
+    T = [np.eye(4)] + [Screw(_unit(rng.normal(size=3)), rng.normal(size=3),
+                             rng.uniform(0.3, 2.0), rng.normal()).matrix() for _ in range(n - 1)]
+    G = _screw(_unit(rng.normal(size=3)), np.zeros(3), 2.1, 0.0)
+    G[:3, 3] = [1000.0, -700.0, 400.0]
+    moved = [G @ t @ np.linalg.inv(G) for t in T]        # the same motion seen from a moved frame
+    a = enumerate_dyads(family, [Screw.from_matrix(t) for t in T[1:]])
+    b = enumerate_dyads(family, [Screw.from_matrix(t) for t in moved[1:]])
+    a, b = a[a.reason == ""], b[b.reason == ""]
+    assert len(a) == len(b) >= 1
+    la = [G[:3, :3] @ ln.direction for _, r in a.iterrows() for ln in _row_lines(r)]
+    lb = [ln.direction for _, r in b.iterrows() for ln in _row_lines(r)]
+    # every moved line direction of the first table is in the second (up to sign)
+    Lb = np.array(lb)
+    for d in la:
+        assert np.min(np.minimum(np.linalg.norm(Lb - d, axis=1),
+                                 np.linalg.norm(Lb + d, axis=1))) <= 1e-7

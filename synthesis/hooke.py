@@ -45,7 +45,7 @@ from .binary import BinaryLink, _rot, _signed_angle, _task
 from .errors import SynthesisError
 from .screw import Line
 from .spherical import _circle, _frame_arg, _trig_roots, sh_links, sp_links, sr_links
-from .validate import number, screws as _screws, vec3
+from .validate import array, number, screws as _screws, vec3
 from .verify import pose_errors
 
 __all__ = ["up_links", "ur_links", "uh_links", "uc_links", "u_directions"]
@@ -117,10 +117,13 @@ def u_directions(link_rotations) -> np.ndarray:
     include the 3 eigenvectors of L₂ (base points, dropped); the rest are polished by
     Gauss–Newton on the four bilinear equations.
     """
-    L = np.asarray(link_rotations, float)
-    if L.shape != (4, 3, 3) or not np.all(np.isfinite(L)):
-        raise SynthesisError(f"link_rotations: expected four rotations (4, 3, 3), got shape "
-                             f"{L.shape}")
+    L = array(link_rotations, "link_rotations", (4, 3, 3),
+              what="four rotation matrices, the first the identity")
+    if np.abs(np.swapaxes(L, 1, 2) @ L - np.eye(3)).max() > 1e-9 or np.any(np.linalg.det(L) < 0):
+        raise SynthesisError("link_rotations: expected rotation matrices (orthonormal, "
+                             "determinant +1)")
+    if np.abs(L[0] - np.eye(3)).max() > 1e-9:
+        raise SynthesisError("link_rotations: expected the identity as the first rotation (L₁ = I)")
     return _directions4(L)
 
 

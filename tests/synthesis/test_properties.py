@@ -17,6 +17,9 @@ from synthesis import (Line, Screw, SynthesisError, chain_mechanism, enumerate_d
 from synthesis import (cc_direction_residual, cc_directions, cc_links, cr_links, helical_links,
                        hh_links_free_pitch,
                        cp_links, pc_links, pr_links, rc_links, rp_links)
+from synthesis import (azimuth_of, complete_dyads, hp_links, hs_links, implemented_families,
+                       least_squares_dyads, ph_links, ps_links, rs_links_at, sh_links, sp_links,
+                       sr_links, task_frame, u_directions, uc_links, uh_links, up_links, ur_links)
 from synthesis.dyads import verify_chains
 from synthesis.rr import _rot
 
@@ -37,6 +40,14 @@ G0 = np.array([0.48, 0.6, 0.64])
 COAXIAL = [Screw.from_degrees([0, 0, 1], [0.2, 0.1, 0], 40, 0.3),
            Screw.from_degrees([0, 0, 1], [-0.3, 0.5, 0], -70, 0.5)]   # a PR/RP task
 HLINK = helical_links(SEED[0], SEED[1], 0.3, -0.2, samples=1000)[0]
+SEED7 = SEED5 + [Screw.from_degrees([0.6, 0.0, 0.8], [-0.2, 0.3, 0.1], 40, 0.2),
+                 Screw.from_degrees([0.0, 0.8, 0.6], [0.5, 0.1, -0.3], -35, 0.6)]
+ROT4 = np.array([np.eye(3)] + [s.matrix()[:3, :3] for s in SEED])
+#: screws each function takes (None: any number ≥ 1; (n, None): at least n)
+N_SCREWS = {"task_frame": None, "azimuth_of": None, "ps_links": 2, "sp_links": 2,
+            "up_links": 2, "rs_links_at": 3, "sr_links": 3, "hs_links": 3, "sh_links": 3,
+            "ur_links": 3, "uh_links": 3, "uc_links": 3, "complete_dyads": 4,
+            "least_squares_dyads": (3, None)}
 
 
 def row_lines(row):
@@ -100,6 +111,24 @@ CASES = {
     "pc_links": (pc_links, dict(s12=COAXIAL[0], s13=COAXIAL[1], fixed_direction=G0)),
     "cp_links": (cp_links, dict(s12=COAXIAL[0], s13=COAXIAL[1], moving_direction=G0)),
     "cc_links.four": (cc_links, dict(screws=SEED, azimuth=0.4, fixed_point=P0)),
+    "task_frame": (task_frame, dict(screws=SEED)),
+    "azimuth_of": (azimuth_of, dict(direction=G0, screws=SEED)),
+    "rs_links_at": (rs_links_at, dict(screws=SEED, azimuth=0.9, tol=1e-9)),
+    "sr_links": (sr_links, dict(screws=SEED, azimuth=0.9, tol=1e-9)),
+    "ps_links": (ps_links, dict(screws=SEED[:2], azimuth=0.9, tol=1e-9)),
+    "sp_links": (sp_links, dict(screws=SEED[:2], azimuth=0.9, tol=1e-9)),
+    "hs_links": (hs_links, dict(screws=SEED, pitch=0.25, azimuth=0.9, tol=1e-9)),
+    "sh_links": (sh_links, dict(screws=SEED, pitch=0.25, azimuth=0.9, tol=1e-9)),
+    "ur_links": (ur_links, dict(screws=SEED, azimuth=0.9, tol=1e-9)),
+    "up_links": (up_links, dict(screws=SEED[:2], slide_azimuth=0.9, axis_azimuth=0.3, tol=1e-9)),
+    "uh_links": (uh_links, dict(screws=SEED, pitch=0.25, azimuth=0.9, tol=1e-9)),
+    "uc_links": (uc_links, dict(screws=SEED, centre=P0, azimuth=0.9, tol=1e-9)),
+    "u_directions": (u_directions, dict(link_rotations=ROT4)),
+    "ph_links": (ph_links, dict(s12=SEED[0], pitch=0.25, fixed_direction=G0)),
+    "hp_links": (hp_links, dict(s12=SEED[0], pitch=0.25, moving_direction=G0)),
+    "complete_dyads": (complete_dyads, dict(chain="CC", screws=SEED5)),
+    "least_squares_dyads": (least_squares_dyads, dict(chain="RR", screws=SEED)),
+    "implemented_families": (implemented_families, dict()),
 }
 SCREWS, LINES = {"other", "s1j", "s1k", "s12", "s13"}, {"previous", "other_line"}
 POSITIVE = {"tol", "length"}
@@ -120,6 +149,18 @@ def corruptions(fname, name, value):
             [("str", "abc"), ("None", None), ("one screw", SEED[0]), ("int", 3),
              ("with a matrix", [SEED[0], SEED[1].matrix(), SEED[2]]),
              ("with None", [SEED[0], None, SEED[2]])]
+    if name == "screws" and fname in N_SCREWS:
+        n = N_SCREWS[fname]
+        out = [("str", "abc"), ("None", None), ("one screw", SEED[0]), ("int", 3),
+               ("with a matrix", [SEED[0], SEED[1].matrix()]), ("with None", [SEED[0], None]),
+               ("empty", [])]
+        if isinstance(n, int):
+            out += [("too few", SEED7[:n - 1]), ("too many", SEED7[:n + 1])]
+        elif isinstance(n, tuple):
+            out += [("too few", SEED7[:n[0] - 1])]
+        return out
+    if name == "chain":
+        return [("None", None), ("int", 3), ("unknown", "XX"), ("list", ["R", "R"])]
     if name == "screws" and fname.startswith("cc_"):      # 2, 3 or 4 screws are all valid
         return [("str", "abc"), ("None", None), ("one screw", SEED[0]), ("int", 3),
                 ("with a matrix", [SEED[0], SEED[1].matrix(), SEED[2]]),
@@ -161,6 +202,10 @@ def corruptions(fname, name, value):
         w = v.copy()
         w.flat[w.size // 2] = bad
         out.append((f"{bad}", w))
+    if fname == "u_directions":
+        w = v.copy()
+        w[0] = v[1]
+        out += [("first not identity", w), ("not orthonormal", 1.01 * v)]
     if name in ("axis", "direction", "m3", "m4", "fixed_direction", "moving_direction"):
         out += [("zero", np.zeros(3)), ("not unit", 2 * v)]
     if v.shape[-2:] == (4, 4):

@@ -395,21 +395,7 @@ class Dynamics:
         mech = self.m
         n = len(mech.inputs)
         check_method(method)
-        x0 = _finite_vector(x0, n, "x0")
-        xd0 = _finite_vector(xd0, n, "xd0")
-        for name, v in (("rtol", rtol), ("atol", atol)):
-            real_number(v, f"simulate: {name}", MechanismError)
-            if not (np.isfinite(v) and v > 0):
-                raise MechanismError(f"simulate: {name} must be a positive number, got {v!r}")
-        if drive is not None and not callable(drive):
-            raise MechanismError(f"simulate: drive must be callable as drive(t, x, xd), got "
-                                 f"{type(drive).__name__}")
-        ts = as_array(t_span, "simulate: t_span", finite=False)
-        if ts.shape != (2,):
-            raise MechanismError(f"simulate: t_span must be (t0, t1), got shape {ts.shape}")
-        t0, t1 = (float(v) for v in ts)
-        if not (np.isfinite(t0) and np.isfinite(t1) and t1 > t0):
-            raise MechanismError(f"simulate: t_span must be (t0, t1) with t1 > t0, got {t_span}")
+        x0, xd0, t0, t1 = _simulate_arguments(n, x0, xd0, rtol, atol, drive, t_span)
         opts = options or SolverOptions()
         start = mech.solve(x0, guess=guess, options=opts)
         start.scalar = False
@@ -499,6 +485,27 @@ def _finite_vector(v, n, name):
     if not np.all(np.isfinite(a)):
         raise MechanismError(f"simulate: {name} must be finite, got {a.tolist()}")
     return a
+
+
+def _simulate_arguments(n, x0, xd0, rtol, atol, drive, t_span):
+    """The checked arguments shared by both ``simulate`` methods: ``x0, xd0`` (n,), and
+    ``t0 < t1``; tolerances positive, ``drive`` callable or None."""
+    x0 = _finite_vector(x0, n, "x0")
+    xd0 = _finite_vector(xd0, n, "xd0")
+    for name, v in (("rtol", rtol), ("atol", atol)):
+        real_number(v, f"simulate: {name}", MechanismError)
+        if not (np.isfinite(v) and v > 0):
+            raise MechanismError(f"simulate: {name} must be a positive number, got {v!r}")
+    if drive is not None and not callable(drive):
+        raise MechanismError(f"simulate: drive must be callable as drive(t, x, xd), got "
+                             f"{type(drive).__name__}")
+    ts = as_array(t_span, "simulate: t_span", finite=False)
+    if ts.shape != (2,):
+        raise MechanismError(f"simulate: t_span must be (t0, t1), got shape {ts.shape}")
+    t0, t1 = (float(v) for v in ts)
+    if not (np.isfinite(t0) and np.isfinite(t1) and t1 > t0):
+        raise MechanismError(f"simulate: t_span must be (t0, t1) with t1 > t0, got {t_span}")
+    return x0, xd0, t0, t1
 
 
 def _row_flags(out: pd.DataFrame, cond_limit: float, rtol: float) -> list:
@@ -1096,21 +1103,7 @@ class ReducedDynamics:
         from .integrate import check_method
         n = self._ni
         check_method(method)
-        x0 = _finite_vector(x0, n, "x0")
-        xd0 = _finite_vector(xd0, n, "xd0")
-        for name, v in (("rtol", rtol), ("atol", atol)):
-            real_number(v, f"simulate: {name}", MechanismError)
-            if not (np.isfinite(v) and v > 0):
-                raise MechanismError(f"simulate: {name} must be a positive number, got {v!r}")
-        if drive is not None and not callable(drive):
-            raise MechanismError(f"simulate: drive must be callable as drive(t, x, xd), got "
-                                 f"{type(drive).__name__}")
-        ts = as_array(t_span, "simulate: t_span", finite=False)
-        if ts.shape != (2,):
-            raise MechanismError(f"simulate: t_span must be (t0, t1), got shape {ts.shape}")
-        t0, t1 = (float(v) for v in ts)
-        if not (np.isfinite(t0) and np.isfinite(t1) and t1 > t0):
-            raise MechanismError(f"simulate: t_span must be (t0, t1) with t1 > t0, got {t_span}")
+        x0, xd0, t0, t1 = _simulate_arguments(n, x0, xd0, rtol, atol, drive, t_span)
         if t_eval is not None:
             t_eval = as_array(t_eval, "simulate: t_eval").ravel()
             if t_eval.size and (t_eval.min() < t0 or t_eval.max() > t1):

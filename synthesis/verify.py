@@ -235,39 +235,12 @@ def verify_links(links, targets, length: float = 1.0) -> np.ndarray:
     numpy.ndarray, shape (len(links),)
         Each link's largest pose error over the positions (rad, or translation / length).
     """
-    if not links:
-        return np.zeros(0)
-    length = number(length, "length", positive=True)
-    targets = _transform(targets, "targets", batch=True)
-    m = Mechanism()
-    frames = _frames_of([ln for lk in links for ln in lk[1]])
-    cols = []
-    for v, (types, lines, pitches, jv) in enumerate(links):
+    for v, lk in enumerate(links):
+        types = lk[0] if isinstance(lk, (tuple, list)) and lk else None
         if not isinstance(types, str) or len(types) != 2 or any(t not in "RHCP" for t in types):
             raise SynthesisError(f"links[{v}]: types: expected two letters of R, H, C, P, got "
                                  f"{types!r}")
-        names = ["ground", f"A{v}", f"B{v}"]
-        m.add_link(names[1])
-        m.add_link(names[2])
-        for k, t in enumerate(types):
-            jn = f"v{v}j{k + 1}"
-            m.add_joint(jn, t, names[k], names[k + 1], at=frames[2 * v + k], validate=False,
-                        pitch=float(pitches[k]) if t == "H" else None)
-            m.add_input(jn, 0)
-            if t == "C":
-                m.add_input(jn, 1)
-        jv = np.asarray(jv, float)
-        if jv.shape != (targets.shape[0], sum(2 if t == "C" else 1 for t in types)):
-            raise SynthesisError(f"links[{v}]: joint_values: expected one row per target and one "
-                                 f"column per driven coordinate, got shape {jv.shape}")
-        cols.append(jv)
-    # open chains with every joint driven: no loop to follow, so no continuation (whose
-    # step scale comes from the geometry, which may be a single point here)
-    pose = m.solve(np.concatenate(cols, 1), continuation=False)
-    link = pose.kinematics(twists=False)["link"]
-    bodies = link[:, [m.links.index(f"B{v}") for v in range(len(links))]]
-    rot, pos = pose_errors(bodies, targets[:, None], length)
-    return np.maximum(rot.max(0), pos.max(0))
+    return _verify_open(links, targets, length, "links")
 
 
 def verify_open_chains(chains, targets, length: float = 1.0) -> np.ndarray:
@@ -295,6 +268,10 @@ def verify_open_chains(chains, targets, length: float = 1.0) -> np.ndarray:
     numpy.ndarray, shape (len(chains),)
         Each chain's largest pose error over the positions (rad, or translation / length).
     """
+    return _verify_open(chains, targets, length, "chains")
+
+
+def _verify_open(chains, targets, length, name: str) -> np.ndarray:
     if not chains:
         return np.zeros(0)
     length = number(length, "length", positive=True)
@@ -305,7 +282,7 @@ def verify_open_chains(chains, targets, length: float = 1.0) -> np.ndarray:
     for v, (types, lines, pitches, jv) in enumerate(chains):
         if not isinstance(types, str) or not types or any(t not in "RHCP" for t in types) \
                 or len(lines) != len(types) or len(pitches) != len(types):
-            raise SynthesisError(f"chains[{v}]: types: expected letters of R, H, C, P, one Line "
+            raise SynthesisError(f"{name}[{v}]: types: expected letters of R, H, C, P, one Line "
                                  f"and one pitch per joint, got {types!r}")
         names = ["ground"] + [f"v{v}L{k + 1}" for k in range(len(types))]
         for k, t in enumerate(types):
@@ -319,7 +296,7 @@ def verify_open_chains(chains, targets, length: float = 1.0) -> np.ndarray:
                 m.add_input(jn, 1)
         jv = np.asarray(jv, float)
         if jv.shape != (targets.shape[0], sum(2 if t == "C" else 1 for t in types)):
-            raise SynthesisError(f"chains[{v}]: joint_values: expected one row per target and "
+            raise SynthesisError(f"{name}[{v}]: joint_values: expected one row per target and "
                                  f"one column per driven coordinate, got shape {jv.shape}")
         cols.append(jv)
         last.append(names[-1])

@@ -69,6 +69,8 @@ FREE_PARAMETERS = {
 }
 
 _PITCH_OF = {"R": 0.0, "C": np.nan, "P": np.inf}
+#: pitch column of a joint kind (H: the given pitch; C, S, U: NaN)
+PITCH_OF_KIND = {"R": 0.0, "P": np.inf}
 
 
 def arrangements(family: str, n_positions: int | None = None) -> list[tuple]:
@@ -109,6 +111,43 @@ def _grid_numbers(v, name, default):
         raise SynthesisError(f"{name}: expected a number or a 1-D array of numbers, got shape "
                              f"{np.shape(v)}")
     return a.astype(float)
+
+def task_positions(family: str, screws, arrangements_of):
+    """The positions ``T (N, 4, 4)`` (position 1 the identity), the family's arrangements
+    through N positions (``arrangements_of(family, N)``) and the task's reach; a clear
+    error naming ``screws`` when the family is not built through that many."""
+    T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
+    N = len(T)
+    arr = arrangements_of(family, N)
+    if not arr:
+        counts = sorted({a[3] + a[4] for a in arrangements_of(family)})
+        raise SynthesisError(f"screws: family {family} is built through "
+                             f"{' or '.join(map(str, counts))} positions "
+                             f"({' or '.join(str(c - 1) for c in counts)} screws), got {N - 1}")
+    _, _, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
+    return T, N, arr, reach
+
+
+def angle_grid(v, name: str, default) -> np.ndarray:
+    """A free angle given as a number or a 1-D array (rad); ``default`` when None."""
+    if v is None:
+        return np.asarray(default, float)
+    a = np.atleast_1d(array(v, name, None, what="a number or a 1-D array (rad)"))
+    if a.ndim != 1 or len(a) == 0:
+        raise SynthesisError(f"{name}: expected a number or a 1-D array of angles (rad), got "
+                             f"shape {np.shape(v)}")
+    return a
+
+
+def nan_geometry(row: dict, family: str) -> dict:
+    """A failed variant's joint columns: types and pitches, NaN axes and points."""
+    for k, t in enumerate(family, start=1):
+        row[f"j{k}_type"] = t
+        for c in ("ux", "uy", "uz", "x", "y", "z"):
+            row[f"j{k}_{c}"] = np.nan
+        row[f"j{k}_pitch"] = PITCH_OF_KIND.get(t, np.nan)
+    return row
+
 
 
 def _pitches(family, pitch):
@@ -270,15 +309,7 @@ def decomposed_dyads(family: str, screws, **choices) -> pd.DataFrame:
     """Every variant of ``family`` (R, P, C, H joints) through the positions ``screws``
     by the decompositions of the module notes; see :func:`synthesis.enumerate_dyads` for
     the table's columns and the keyword choices."""
-    T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
-    N = len(T)
-    arr = arrangements(family, N)
-    if not arr:
-        counts = sorted({a[3] + a[4] for a in arrangements(family)})
-        raise SynthesisError(f"screws: family {family} is built through "
-                             f"{' or '.join(map(str, counts))} positions "
-                             f"({' or '.join(str(c - 1) for c in counts)} screws), got {N - 1}")
-    _, _, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
+    T, N, arr, reach = task_positions(family, screws, arrangements)
     unknown = set(choices) - set(FREE_PARAMETERS)
     if unknown:
         raise SynthesisError(f"{', '.join(sorted(unknown))}: unknown choice; expected "

@@ -27,10 +27,10 @@ import numpy as np
 
 from closure import Mechanism
 
+from .decompose import angle_grid, nan_geometry, task_positions
 from .errors import SynthesisError
 from .screw import Line
 from .transition import transition_joint
-from .validate import array, task_scale
 from .verify import _frames_of, pose_errors
 
 __all__ = ["hooke_arrangements", "hooke_family_dyads"]
@@ -112,19 +112,12 @@ def hooke_family_dyads(family: str, screws, *, azimuth=None, axis_azimuth=None) 
     from .decompose import _flipped
     from .hooke import up_links, ur_links
     from .spherical import task_frame
-    T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
-    N = len(T)
-    arr = hooke_arrangements(family, N)
-    if not arr:
-        counts = sorted({a[3] + a[4] for a in hooke_arrangements(family)})
-        raise SynthesisError(f"screws: family {family} is built through "
-                             f"{' or '.join(map(str, counts))} positions, got {N}")
+    T, N, arr, reach = task_positions(family, screws, hooke_arrangements)
     if axis_azimuth is not None and family[2] != "P":
         raise SynthesisError(f"axis_azimuth: not a free parameter of family {family} (only of "
                              "RUP, URP)")
-    _, _, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
-    psis = _grid(azimuth, "azimuth", DEFAULT_AZIMUTHS)
-    chis = _grid(axis_azimuth, "axis_azimuth", DEFAULT_AXIS_AZIMUTHS) if family[2] == "P" \
+    psis = angle_grid(azimuth, "azimuth", DEFAULT_AZIMUTHS)
+    chis = angle_grid(axis_azimuth, "axis_azimuth", DEFAULT_AXIS_AZIMUTHS) if family[2] == "P" \
         else [None]
     frame = task_frame(screws)
     y = family[2]
@@ -200,16 +193,6 @@ def hooke_family_dyads(family: str, screws, *, azimuth=None, axis_azimuth=None) 
     return rows
 
 
-def _grid(v, name, default):
-    if v is None:
-        return default
-    a = np.atleast_1d(array(v, name, None, what="a number or a 1-D array (rad)"))
-    if a.ndim != 1 or len(a) == 0:
-        raise SynthesisError(f"{name}: expected a number or a 1-D array of angles (rad), got "
-                             f"shape {np.shape(v)}")
-    return a
-
-
 def _base(family, name, main, Pm, s, rest, params):
     row = {"family": family, "variant": 0,
            "order": (f"{main} through {tuple(p + 1 for p in Pm)}; R "
@@ -247,11 +230,7 @@ def _row(family, name, main, Pm, s, rest, params, joints, vals):
 
 def _failed(family, name, main, Pm, s, rest, params, reason):
     row = _base(family, name, main, Pm, s, rest, params)
-    for k, t in enumerate(family, start=1):
-        row[f"j{k}_type"] = t
-        for c in ("ux", "uy", "uz", "x", "y", "z"):
-            row[f"j{k}_{c}"] = np.nan
-        row[f"j{k}_pitch"] = {"R": 0.0, "P": np.inf}.get(t, np.nan)
+    nan_geometry(row, family)
     row["residual"] = np.nan
     row["reason"] = reason
     _tail(row, main, Pm, s, params)

@@ -20,9 +20,9 @@ import itertools
 import numpy as np
 
 from .binary import _screw_matrix
+from .decompose import angle_grid, nan_geometry, task_positions
 from .errors import SynthesisError
 from .screw import Line
-from .validate import array, task_scale
 from .verify import verify_points
 
 __all__ = ["sphere_arrangements", "sphere_family_dyads", "SPHERE_MAIN_POSITIONS"]
@@ -66,19 +66,8 @@ def sphere_family_dyads(family: str, screws, *, azimuth=None) -> list[dict]:
     """
     from .dyads import _canonical_chain, _row
     from .spherical import ps_links, rs_links_at, task_frame
-    T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
-    N = len(T)
-    arr = sphere_arrangements(family, N)
-    if not arr:
-        counts = sorted({a[3] + a[4] for a in sphere_arrangements(family)})
-        raise SynthesisError(f"screws: family {family} is built through "
-                             f"{' or '.join(map(str, counts))} positions, got {N}")
-    _, _, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
-    psis = (DEFAULT_AZIMUTHS if azimuth is None else
-            np.atleast_1d(array(azimuth, "azimuth", None, what="a number or a 1-D array (rad)")))
-    if psis.ndim != 1 or len(psis) == 0:
-        raise SynthesisError(f"azimuth: expected a number or a 1-D array of angles (rad), got "
-                             f"shape {np.shape(azimuth)}")
+    T, N, arr, reach = task_positions(family, screws, sphere_arrangements)
+    psis = angle_grid(azimuth, "azimuth", DEFAULT_AZIMUTHS)
     frame = task_frame(screws)
     rows, chains = [], []
     cache = {}
@@ -173,9 +162,4 @@ def _failed(family, name, main, x, Pm, s, rest, psi, reason):
            "arrangement": name, "transition": x + "S", "main_link": main,
            "main_positions": str(tuple(p + 1 for p in Pm)), "transition_position": s + 1,
            "azimuth": float(psi), "residual": np.nan, "reason": reason}
-    for k, t in enumerate(family, start=1):
-        row[f"j{k}_type"] = t
-        for c in ("ux", "uy", "uz", "x", "y", "z"):
-            row[f"j{k}_{c}"] = np.nan
-        row[f"j{k}_pitch"] = {"R": 0.0, "P": np.inf}.get(t, np.nan)
-    return row
+    return nan_geometry(row, family)

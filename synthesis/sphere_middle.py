@@ -25,10 +25,10 @@ import numpy as np
 
 from closure import Mechanism
 
+from .decompose import angle_grid, nan_geometry, task_positions
 from .errors import SynthesisError
 from .screw import Line
 from .transition import transition_joint
-from .validate import array, task_scale
 from .verify import _frames_of
 
 __all__ = ["middle_arrangements", "sphere_middle_dyads", "verify_split"]
@@ -103,19 +103,8 @@ def sphere_middle_dyads(family: str, screws, *, azimuth=None) -> list[dict]:
     slide direction on that great circle; default 0, π/4, π/2, 3π/4)."""
     from .decompose import _flipped
     from .spherical import sp_links, sr_links, task_frame
-    T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
-    N = len(T)
-    arr = middle_arrangements(family, N)
-    if not arr:
-        counts = sorted({a[3] + a[4] for a in middle_arrangements(family)})
-        raise SynthesisError(f"screws: family {family} is built through "
-                             f"{' or '.join(map(str, counts))} positions, got {N}")
-    _, _, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
-    psis = (DEFAULT_AZIMUTHS if azimuth is None else
-            np.atleast_1d(array(azimuth, "azimuth", None, what="a number or a 1-D array (rad)")))
-    if psis.ndim != 1 or len(psis) == 0:
-        raise SynthesisError(f"azimuth: expected a number or a 1-D array of angles (rad), got "
-                             f"shape {np.shape(azimuth)}")
+    T, N, arr, reach = task_positions(family, screws, middle_arrangements)
+    psis = angle_grid(azimuth, "azimuth", DEFAULT_AZIMUTHS)
     frame = task_frame(screws)
     rows, chains = [], []
     y_kind = family[2]
@@ -235,11 +224,7 @@ def _row(family, name, main, Pm, s, rest, psi, lines, O, member, elevation):
 
 def _failed(family, name, main, Pm, s, rest, psi, reason):
     row = _base(family, name, main, Pm, s, rest, psi)
-    for k, t in enumerate(family, start=1):
-        row[f"j{k}_type"] = t
-        for c in ("ux", "uy", "uz", "x", "y", "z"):
-            row[f"j{k}_{c}"] = np.nan
-        row[f"j{k}_pitch"] = {"R": 0.0, "P": np.inf}.get(t, np.nan)
+    nan_geometry(row, family)
     row["residual"] = np.nan
     row["reason"] = reason
     _tail(row, family, main, Pm, s, psi)

@@ -311,27 +311,7 @@ class Dynamics:
         DataFrame: ``t``, inputs, ``drive:<input>`` (N or N·m), the joint
         coordinates, ``residual`` and ``condition``.  Nothing is integrated.
         """
-        t = as_array(t, "inverse: t")
-        if t.ndim != 1 or t.size == 0:
-            raise MechanismError(f"inverse: t must be a non-empty 1-D array of times, got shape "
-                                 f"{t.shape}")
-        if callable(x):
-            motion = x(t)
-            if not isinstance(motion, (tuple, list)) or len(motion) != 3:
-                raise MechanismError("inverse: the callable x(t) must return (x, xd, xdd)")
-        else:
-            if xd is None or xdd is None:
-                raise MechanismError("inverse: give xd and xdd with an array x, or a callable")
-            motion = (x, xd, xdd)
-        n = len(self.m.inputs)
-        arrays = []
-        for name, v in zip(("x", "xd", "xdd"), motion):
-            a = as_array(v, f"inverse: {name}")
-            if a.size != t.size * n:
-                raise MechanismError(f"inverse: {name} must have shape ({t.size}, {n}) "
-                                     f"(times, inputs), got {a.shape}")
-            arrays.append(a.reshape(t.size, n))
-        x, xd, xdd = arrays
+        t, x, xd, xdd = _inverse_arguments(len(self.m.inputs), t, x, xd, xdd)
         df, pose = self.m.sweep(x, return_pose=True)
         if len(pose) != t.size:
             bad = df[~df.status.isin(REACHED)].iloc[0]
@@ -485,6 +465,31 @@ def _finite_vector(v, n, name):
     if not np.all(np.isfinite(a)):
         raise MechanismError(f"simulate: {name} must be finite, got {a.tolist()}")
     return a
+
+
+def _inverse_arguments(n, t, x, xd, xdd):
+    """The checked motion of both ``inverse`` methods: times ``t`` (T,) and ``x, xd, xdd``
+    (T, n), given as arrays or by a callable ``x(t) → (x, xd, xdd)``."""
+    t = as_array(t, "inverse: t")
+    if t.ndim != 1 or t.size == 0:
+        raise MechanismError(f"inverse: t must be a non-empty 1-D array of times, got shape "
+                             f"{t.shape}")
+    if callable(x):
+        motion = x(t)
+        if not isinstance(motion, (tuple, list)) or len(motion) != 3:
+            raise MechanismError("inverse: the callable x(t) must return (x, xd, xdd)")
+    else:
+        if xd is None or xdd is None:
+            raise MechanismError("inverse: give xd and xdd with an array x, or a callable")
+        motion = (x, xd, xdd)
+    arrays = []
+    for name, v in zip(("x", "xd", "xdd"), motion):
+        a = as_array(v, f"inverse: {name}")
+        if a.size != t.size * n:
+            raise MechanismError(f"inverse: {name} must have shape ({t.size}, {n}) "
+                                 f"(times, inputs), got {a.shape}")
+        arrays.append(a.reshape(t.size, n))
+    return (t, *arrays)
 
 
 def _simulate_arguments(n, x0, xd0, rtol, atol, drive, t_span):
@@ -1039,27 +1044,7 @@ class ReducedDynamics:
         from the transfer functions, and ``residual``: the loop-closure error those
         coordinates leave (rad, or length / the mechanism's scale).
         """
-        t = as_array(t, "inverse: t")
-        if t.ndim != 1 or t.size == 0:
-            raise MechanismError(f"inverse: t must be a non-empty 1-D array of times, got "
-                                 f"shape {t.shape}")
-        if callable(x):
-            motion = x(t)
-            if not isinstance(motion, (tuple, list)) or len(motion) != 3:
-                raise MechanismError("inverse: the callable x(t) must return (x, xd, xdd)")
-        else:
-            if xd is None or xdd is None:
-                raise MechanismError("inverse: give xd and xdd with an array x, or a callable")
-            motion = (x, xd, xdd)
-        n = self._ni
-        arrays = []
-        for name, v in zip(("x", "xd", "xdd"), motion):
-            a = as_array(v, f"inverse: {name}")
-            if a.size != t.size * n:
-                raise MechanismError(f"inverse: {name} must have shape ({t.size}, {n}) "
-                                     f"(times, inputs), got {a.shape}")
-            arrays.append(a.reshape(t.size, n))
-        x, xd, xdd = arrays
+        t, x, xd, xdd = _inverse_arguments(self._ni, t, x, xd, xdd)
         self._check_range(x, "inverse: x")
         M, h, Q, q, _, _, _, _ = self._evaluate(x, xd, t)
         drive = np.einsum("bij,bj->bi", M, xdd) + h - Q

@@ -222,27 +222,34 @@ def circle_axis(p1, p2, p3):
     return Line(n, O).canonical(), angs
 
 
-def _middle(family):
-    def solve(screws, *, azimuth=None) -> pd.DataFrame:
-        from .sphere_middle import sphere_middle_dyads
-        return pd.DataFrame(sphere_middle_dyads(family, _screws(screws, "screws"),
-                                                azimuth=azimuth))
-    solve.__name__ = f"{family.lower()}_dyads"
+#: the family modules whose families have their own builder: each holds ``FAMILIES``
+#: ({family: (positions, free-parameter names, note)}), an arrangement function
+#: ``ARRANGEMENTS(family, n_positions)`` and ``BUILD(family, screws, **choices)`` (rows)
+_FAMILY_MODULES = ("sphere_families", "sphere_middle", "hooke_families")
+
+
+def _family_module(fam):
+    """The module that builds ``fam`` (or None: RRR and the decomposed families)."""
+    import importlib
+    for name in _FAMILY_MODULES:
+        mod = importlib.import_module(f"{__package__}.{name}")
+        if fam in mod.FAMILIES:
+            return mod
+    return None
+
+
+def _module_solver(fam, mod):
+    n, allowed, _ = mod.FAMILIES[fam]
+
+    def solve(screws, **choices) -> pd.DataFrame:
+        bad = set(choices) - set(allowed)
+        if bad:
+            raise SynthesisError(f"{', '.join(sorted(bad))}: not a free parameter of family "
+                                 f"{fam} (its free parameters: "
+                                 f"{', '.join(sorted(allowed)) or 'none'})")
+        return pd.DataFrame(mod.BUILD(fam, _screws(screws, "screws"), **choices))
+    solve.__name__ = f"{fam.lower()}_dyads"
     return solve
-
-
-def _hooke(family):
-    def solve(screws, *, azimuth=None, axis_azimuth=None) -> pd.DataFrame:
-        from .hooke_families import hooke_family_dyads
-        return pd.DataFrame(hooke_family_dyads(family, _screws(screws, "screws"),
-                                               azimuth=azimuth, axis_azimuth=axis_azimuth))
-    solve.__name__ = f"{family.lower()}_dyads"
-    return solve
-
-
-FAMILY_SOLVERS = {"RRR": rrr_dyads, "RRS": rrs_dyads, "PRS": prs_dyads, "RPS": rps_dyads,
-                  **{f: _middle(f) for f in ("RSR", "SRR", "RSP", "SRP")},
-                  **{f: _hooke(f) for f in ("RUR", "URR", "RUP", "URP")}}
 
 
 def implemented_families() -> dict:
@@ -255,10 +262,11 @@ def implemented_families() -> dict:
 def _implemented() -> dict:
     from .decompose import arrangements
     from .families import family_names
-    out = {"RRR": ("direct", (4,)), "RRS": ("direct", (6,)), "PRS": ("direct", (5,)),
-           "RPS": ("direct", (5,)), "RSR": ("direct", (5,)), "SRR": ("direct", (5,)),
-           "RSP": ("direct", (4,)), "SRP": ("direct", (4,)), "RUR": ("direct", (5,)),
-           "URR": ("direct", (5,)), "RUP": ("direct", (4,)), "URP": ("direct", (4,))}
+    import importlib
+    out = {"RRR": ("direct", (4,))}
+    for name in _FAMILY_MODULES:
+        mod = importlib.import_module(f"{__package__}.{name}")
+        out.update({f: ("direct", (n,)) for f, (n, _, _) in mod.FAMILIES.items()})
     names = set(family_names())
     for fam in sorted(names | {f[::-1] for f in names}):
         if fam in out or "S" in fam or "U" in fam:
@@ -342,15 +350,14 @@ def enumerate_dyads(family: str, screws, **choices) -> pd.DataFrame:
     how = impl[fam][0]
     if how != "direct":
         return _inverse_family(fam, screws, choices)
-    if fam in FAMILY_SOLVERS:
-        allowed = ({"azimuth"} if "S" in fam else {"azimuth", "axis_azimuth"}
-                   if fam in ("RUP", "URP") else {"azimuth"} if "U" in fam else set())
-        bad = set(choices) - allowed
-        if bad:
-            raise SynthesisError(f"{', '.join(sorted(bad))}: not a free parameter of family "
-                                 f"{fam} (its free parameters: "
-                                 f"{', '.join(sorted(allowed)) or 'none'})")
-        return FAMILY_SOLVERS[fam](_screws(screws, "screws"), **choices)
+    if fam == "RRR":
+        if choices:
+            raise SynthesisError(f"{', '.join(sorted(choices))}: not a free parameter of "
+                                 "family RRR (its free parameters: none)")
+        return rrr_dyads(screws)
+    mod = _family_module(fam)
+    if mod is not None:
+        return _module_solver(fam, mod)(screws, **choices)
     from .decompose import decomposed_dyads
     return decomposed_dyads(fam, _screws(screws, "screws"), **choices)
 

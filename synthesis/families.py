@@ -136,7 +136,7 @@ def families() -> pd.DataFrame:
     its binary links are ПС and ВС, and ВВС is row 14), column ``note`` says so.
     """
     from .decompose import arrangements
-    from .dyads import implemented_families
+    from .dyads import _family_module, implemented_families
     impl = implemented_families()
     rows = []
     for r, (fams, links, n, nmax) in enumerate(_TABLE3, start=1):
@@ -146,22 +146,18 @@ def families() -> pd.DataFrame:
             how = impl.get(lat)
             arr = [a for a in arrangements(lat)] if how is not None and \
                 how[0] == "direct" else []
-            if lat[2] == "S" and how is not None:
-                from .sphere_families import sphere_arrangements
-                arr = sphere_arrangements(lat)
-            elif "S" in lat and how is not None:
-                from .sphere_middle import middle_arrangements
-                arr = middle_arrangements(lat)
-            elif "U" in lat and how is not None:
-                from .hooke_families import hooke_arrangements
-                arr = hooke_arrangements(lat)
+            mod = _family_module(lat) if how is not None else None
+            if mod is not None:
+                arr = mod.ARRANGEMENTS(lat)
             elif lat == "RRR":
                 arr = [("a", "RR", "R", 3, 1), ("b", "RR", "R", 3, 1)]
             if any(a[3] + a[4] == n for a in arr):
                 arr = [a for a in arr if a[3] + a[4] == n]
             note = _NOTES.get((r, lat), "")
             n_impl = tuple(how[1]) if how is not None else ()
-            if how is not None and n not in n_impl and (r, lat) not in _NOTES:
+            if mod is not None and mod.FAMILIES[lat][2]:
+                note = mod.FAMILIES[lat][2]      # the implementing module's own note
+            elif how is not None and n not in n_impl and (r, lat) not in _NOTES:
                 note = (f"the implemented construction takes N = "
                         f"{', '.join(map(str, n_impl))}, the paper prints {n}")
             rows.append({"family": lat, "seed": w, "row": r, "binary_links": links,

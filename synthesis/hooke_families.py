@@ -38,6 +38,10 @@ __all__ = ["hooke_arrangements", "hooke_family_dyads"]
 _MAIN = {"UR": 4, "UP": 3}
 DEFAULT_AZIMUTHS = np.arange(4) * np.pi / 4
 DEFAULT_AXIS_AZIMUTHS = np.array([np.pi / 6, 2 * np.pi / 3])
+#: family → (positions, free parameters, note for :func:`synthesis.families`)
+FAMILIES = {"RUR": (5, ("azimuth",), ""), "URR": (5, ("azimuth",), ""),
+            "RUP": (4, ("azimuth", "axis_azimuth"), ""),
+            "URP": (4, ("azimuth", "axis_azimuth"), "")}
 
 
 def hooke_arrangements(family: str, n_positions: int | None = None) -> list[tuple]:
@@ -235,3 +239,7 @@ def _failed(family, name, main, Pm, s, rest, params, reason):
     row["reason"] = reason
     _tail(row, main, Pm, s, params)
     return row
+
+
+ARRANGEMENTS = hooke_arrangements
+BUILD = hooke_family_dyads

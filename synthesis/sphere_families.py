@@ -32,6 +32,9 @@ SPHERE_MAIN_POSITIONS = {"RS": 4, "PS": 3}
 _TRANS = {"R": 2, "P": 1}
 #: default azimuth grid (rad)
 DEFAULT_AZIMUTHS = np.arange(4) * np.pi / 4
+#: family → (positions, free parameters, note for :func:`synthesis.families`)
+FAMILIES = {"RRS": (6, ("azimuth",), ""), "PRS": (5, ("azimuth",), ""),
+            "RPS": (5, ("azimuth",), "")}
 
 
 def sphere_arrangements(family: str, n_positions: int | None = None) -> list[tuple]:
@@ -163,3 +166,7 @@ def _failed(family, name, main, x, Pm, s, rest, psi, reason):
            "main_positions": str(tuple(p + 1 for p in Pm)), "transition_position": s + 1,
            "azimuth": float(psi), "residual": np.nan, "reason": reason}
     return nan_geometry(row, family)
+
+
+ARRANGEMENTS = sphere_arrangements
+BUILD = sphere_family_dyads

@@ -35,6 +35,9 @@ __all__ = ["middle_arrangements", "sphere_middle_dyads", "verify_split"]
 
 _MAIN = {"SR": 4, "SP": 3}
 DEFAULT_AZIMUTHS = np.arange(4) * np.pi / 4
+#: family → (positions, free parameters, note for :func:`synthesis.families`)
+FAMILIES = {"RSR": (5, ("azimuth",), ""), "SRR": (5, ("azimuth",), ""),
+            "RSP": (4, ("azimuth",), ""), "SRP": (4, ("azimuth",), "")}
 
 
 def middle_arrangements(family: str, n_positions: int | None = None) -> list[tuple]:
@@ -229,3 +232,7 @@ def _failed(family, name, main, Pm, s, rest, psi, reason):
     row["reason"] = reason
     _tail(row, family, main, Pm, s, psi)
     return row
+
+
+ARRANGEMENTS = middle_arrangements
+BUILD = sphere_middle_dyads

@@ -577,6 +577,9 @@ def _solve_small(M, F):
     return np.linalg.solve(M, F)
 
 
+_EYE4 = np.eye(4)
+
+
 def _skew3(a):
     """[a]× (..., 3, 3) of vectors (..., 3) (no checks: the reduced model's hot path)."""
     return (a @ _EPS).reshape(a.shape + (3,))
@@ -853,15 +856,13 @@ class ReducedDynamics:
             if not self._fwd[k]:
                 A = _rigid_inverse(A)
             rel[:, k] = self._left[k] @ A @ self._right[k]
-        if B == 1:                                # one pose: 2-D products, then one stack
-            r = rel[0]
-            out = [None] * len(t.links)
-            out[0] = np.eye(4)
-            for li, parent, k in self._order:
-                out[li] = r[k] if parent == 0 else np.dot(out[parent], r[k])
-            return np.stack(out)[None]
         link = np.empty((B, len(t.links), 4, 4))
-        link[:, 0] = np.eye(4)
+        link[:, 0] = _EYE4
+        if B == 1:                                # one pose: 2-D products into place
+            r, out = rel[0], link[0]
+            for li, parent, k in self._order:
+                np.dot(out[parent], r[k], out=out[li])
+            return link
         for li, parent, k in self._order:
             np.matmul(link[:, parent], rel[:, k], out=link[:, li])
         return link

@@ -96,6 +96,14 @@ def run(study: Study, out: Outputs, progress) -> dict:
                 ax.set_xlabel(xlabel)
                 ax.legend(fontsize=7, ncol=2)
         rep.figure("joints.png", plot_joints, nrows=len(panels))
+    if ok.any():
+        from .cmd_draw import FRAMES, analyze_scene
+        rep.heading("Drawing")
+        rep.drawing("mechanism", analyze_scene(study, mech, poses)[2],
+                    f"The mechanism at the sweep's closed poses (up to six drawn, earlier ones "
+                    f"fainter; the interactive view has at most {FRAMES} of them), joints "
+                    "drawn from the engine's joint frames, point paths dashed.",
+                    frames=FRAMES)
     summary = {"command": "analyze", "poses": int(len(df)), "closed": int(ok.sum()),
                "input_range": quantity([float(xin.min()), float(xin.max())] if ok.any()
                                        else [], iu),

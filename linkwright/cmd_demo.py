@@ -61,18 +61,23 @@ def run_demo(folder, out, commands: dict, progress) -> dict:
         progress(f"{path.name}: {cmd}")
         sub = Outputs(out.folder / path.stem, cmd)
         summary = commands[cmd](study, sub, progress)
+        thumb = next((n for n in sub.files if n.endswith(".png") and
+                      (n.startswith("mechanism") or n.startswith("variant"))), None)
         out.merge(sub, path.stem)
-        rows.append((path.stem, title, cmd, summary))
-    md = ["# linkwright demo", "", "| study | command | summary |", "|---|---|---|"]
+        rows.append((path.stem, title, cmd, summary, thumb))
+    md = ["# linkwright demo", "", "| study | command | summary | drawing |", "|---|---|---|---|"]
     h = ["<!DOCTYPE html><html><head><meta charset='utf-8'><title>linkwright demo</title>"
          "</head><body><h1>linkwright demo</h1><table border='1'><tr><th>study</th>"
-         "<th>command</th><th>summary</th></tr>"]
+         "<th>command</th><th>summary</th><th>drawing</th></tr>"]
     from .cli import summary_line
-    for stem, title, cmd, summ in rows:
+    for stem, title, cmd, summ, thumb in rows:
         brief = summary_line(summ)
-        md.append(f"| [{title}]({stem}/report.md) | {cmd} | {brief} |")
+        pic = f"![{stem}]({stem}/{thumb})" if thumb else ""
+        md.append(f"| [{title}]({stem}/report.md) | {cmd} | {brief} | {pic} |")
+        img = (f"<a href='{stem}/report.html'><img src='{stem}/{html.escape(thumb)}' "
+               f"alt='{html.escape(title)}' width='180'></a>" if thumb else "")
         h.append(f"<tr><td><a href='{stem}/report.html'>{html.escape(title)}</a></td>"
-                 f"<td>{cmd}</td><td>{html.escape(brief)}</td></tr>")
+                 f"<td>{cmd}</td><td>{html.escape(brief)}</td><td>{img}</td></tr>")
     h.append("</table></body></html>")
     out.add("index.md", "\n".join(md) + "\n")
     out.add("index.html", "\n".join(h))

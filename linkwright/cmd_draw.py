@@ -18,7 +18,7 @@ from .output import Outputs
 from .render import figure_png
 from .study import Study
 
-__all__ = ["run", "analyze_scene", "synth_scenes", "BEST", "FRAMES"]
+__all__ = ["run", "analyze_scene", "synth_scenes", "variant_scenes", "BEST", "FRAMES"]
 
 #: how many of the best-ranked synthesis variants are drawn
 BEST = 3
@@ -26,15 +26,16 @@ BEST = 3
 FRAMES = 120
 
 
-def analyze_scene(study: Study):
-    """The scene of an ``analyze`` study: its mechanism at the sweep's closed poses."""
+def analyze_scene(study: Study, mech: Mechanism | None = None, poses=None):
+    """The scene of an ``analyze`` study: its mechanism at the sweep's closed poses (the
+    study's own sweep, or ``mech`` and its ``poses`` when the caller has swept already)."""
     from .mechspec import build_mechanism, sweep_values
-    mech = build_mechanism(study.section("mechanism"))
-    x = sweep_values(study.section("sweep"), mech)
-    df, poses = mech.sweep(x, return_pose=True)
-    ok = df.status.isin(REACHED).to_numpy()
-    if not ok.any():
-        raise study.error("sweep", "no pose of the sweep closed: nothing to draw")
+    if mech is None:
+        mech = build_mechanism(study.section("mechanism"))
+        x = sweep_values(study.section("sweep"), mech)
+        df, poses = mech.sweep(x, return_pose=True)
+        if not df.status.isin(REACHED).any():
+            raise study.error("sweep", "no pose of the sweep closed: nothing to draw")
     points = {}
     for p in study.sections("point", required=False):
         link = p.get("link", "str")
@@ -113,6 +114,18 @@ def synth_scenes(study: Study, best: int = BEST):
     kind = crit.get("kind", "str", "link_length") if crit else "link_length"
     center = crit.get("center", "vec3", np.zeros(3)) if crit else np.zeros(3)
     ranked = rank_variants(df, kind, center, size, len(T))
+    return variant_scenes(ranked, T, family, best)
+
+
+def variant_scenes(ranked, T, family: str, best: int = BEST):
+    """The scenes of the ``best`` best-ranked variants of a ranked synthesis table, each
+    driven by the engine to its joint values at every task position ``T (P, 4, 4)``.
+
+    Returns
+    -------
+    list of (variant, Scene, targets (P, 4, 4)); and the number of ranked variants not
+    drawn because their joints cannot all be driven (S, U).
+    """
     rows = ranked[ranked["rank"].notna()].sort_values("rank")
     out, skipped = [], 0
     for _, row in rows.iterrows():

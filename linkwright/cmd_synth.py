@@ -322,6 +322,16 @@ def run(study: Study, out: Outputs, progress) -> dict:
                                 for k in (1, 2, 3)]), "{:.6g}",
                   units={"ux": DIMENSIONLESS, "uy": DIMENSIONLESS, "uz": DIMENSIONLESS,
                          "x": "m", "y": "m", "z": "m"})
+    from .cmd_draw import variant_scenes
+    scenes, not_drawn = variant_scenes(ranked, np.stack(T), family, best=1)
+    for v, scn, _ in scenes:
+        rep.heading("Drawing of the best drawable variant")
+        rep.drawing(f"variant{v}", scn,
+                    f"Variant {v} driven by the engine to its joint values at the {len(T)} task "
+                    "positions: the body's reached frames (solid triads) on the given ones "
+                    "(dotted), the body origin's positions as points; earlier positions fainter."
+                    + (f" {not_drawn} better-ranked variant(s) with S or U joints are not drawn."
+                       if not_drawn else ""))
     rep.add_to(out)
     best = best_rows.iloc[0] if len(best_rows) else None
     return {"command": "synth", "family": family, "variants": int(len(df)),

@@ -237,6 +237,9 @@ class Report:
         self.found: list[str] = []
         self.blocks: list[tuple] = []
         self.figures: dict[str, bytes] = {}
+        self.pages: dict[str, str] = {}
+        #: the first drawing's PNG name (the demo index shows it as a thumbnail)
+        self.thumbnail: str | None = None
 
     def findings(self, *sentences: str) -> None:
         """Sentences of the findings section (shown first, under the title)."""
@@ -271,6 +274,24 @@ class Report:
         self.figures[name] = figure_png(fig)
         self.blocks.append(("f", name))
 
+    def drawing(self, name: str, scn, caption: str = "", *, frames: int = 120) -> None:
+        """Add a drawing of a :class:`~linkwright.draw.Scene`: a still figure
+        (``NAME.png``) and its offline animation (``NAME.html``: slider over the frames,
+        drag to rotate), embedded in the HTML report and linked from the Markdown one.
+        Without matplotlib only the animation is added."""
+        from .draw import draw, html_animation
+        if caption:
+            self.blocks.append(("p", caption))
+        if have_matplotlib():
+            self.figures[f"{name}.png"] = figure_png(draw(scn), dpi=100)
+            self.blocks.append(("f", f"{name}.png"))
+            if self.thumbnail is None:
+                self.thumbnail = f"{name}.png"
+        else:
+            self.blocks.append(("p", PLOT_NOTE))
+        self.pages[f"{name}.html"] = html_animation(scn, limit=frames)
+        self.blocks.append(("a", f"{name}.html"))
+
     @staticmethod
     def _cells(df, floatfmt):
         return [[cell(v, floatfmt) for v in row] for row in df.itertuples(index=False)]
@@ -301,6 +322,9 @@ class Report:
                 out.append("")
             elif b[0] == "f":
                 out += [f"![{b[1]}]({b[1]})", ""]
+            elif b[0] == "a":
+                out += [f"[Interactive view: {b[1]}]({b[1]}) (slider over the frames, drag "
+                        "to rotate)", ""]
         return "\n".join(out)
 
     def html(self) -> str:
@@ -334,6 +358,12 @@ class Report:
                 data = base64.b64encode(self.figures[b[1]]).decode()
                 parts.append(f"<p><img alt='{html.escape(b[1])}' src='data:image/png;base64,{data}'>"
                              "</p>")
+            elif b[0] == "a":                  # the animation, self-contained in a frame
+                parts.append(f"<p><iframe title='{html.escape(b[1])}' "
+                             f"srcdoc='{html.escape(self.pages[b[1]], quote=True)}' "
+                             "width='760' height='680' style='border:1px solid #ccc'>"
+                             f"</iframe><br><a href='{html.escape(b[1])}'>open {html.escape(b[1])}"
+                             "</a></p>")
         parts.append("</body></html>")
         return "\n".join(parts)
 
@@ -343,6 +373,8 @@ class Report:
         outputs.add(f"{stem}.html", self.html())
         for name, data in self.figures.items():
             outputs.add(name, data)
+        for name, page in self.pages.items():
+            outputs.add(name, page)
 
     def write(self, path, csv: dict | None = None) -> None:
         """Write the Markdown to ``path``, its figures and ``csv`` (name → DataFrame, saved

@@ -192,3 +192,37 @@ def test_page_script_runs_and_the_slider_redraws(tmp_path):
     out = json.loads(r.stdout)
     assert out["changed"] and int(out["max"]) == len(scn) - 1
     assert out["label"].startswith(f"frame {len(scn)} of {len(scn)}")
+
+
+def _page_data(page):
+    return json.loads(re.search(r'<script id="scene-data" type="application/json">(.*?)'
+                                r"</script>", page, re.S).group(1).replace("<\\/", "</"))
+
+
+def test_reports_embed_the_engine_drawing(tmp_path):
+    """The analyze and synth reports carry the drawing and its animation: the HTML report's
+    frame is the animation page itself (offline), whose joints are the engine's joint frames;
+    the synth report's drawn body frames are the task poses (the demo index's thumbnails:
+    tests/linkwright/test_reports.py)."""
+    import html as _html
+    assert main(["examples", "-o", str(tmp_path / "ex")]) == 0
+    assert main(["analyze", str(tmp_path / "ex" / "fourbar_dynamics.toml"), "-o",
+                 str(tmp_path / "a"), "--quiet"]) == 0
+    rep = (tmp_path / "a" / "report.html").read_text()
+    page = (tmp_path / "a" / "mechanism.html").read_text()
+    src = re.search(r"srcdoc='(.*?)'", rep, re.S).group(1)
+    assert _html.unescape(src) == page and "http" not in page.split("<script")[0]
+    assert "mechanism.html" in (tmp_path / "a" / "report.md").read_text()
+    mech, poses, _ = _analyze("fourbar_dynamics.toml")
+    data = _page_data(page)
+    for f, i in zip(data["frames"], range(len(data["frames"]))):
+        for k, j in enumerate(mech.joints):
+            Ta = np.asarray(poses.link_frame(j.link_a))[i] @ j.frame_a
+            assert np.abs(np.array(f["position"][k]) - Ta[:3, 3]).max() < 1e-12
+    assert main(["synth", str(tmp_path / "ex" / "seed001_rrr.toml"), "-o", str(tmp_path / "s"),
+                 "--quiet"]) == 0
+    (anim,) = (tmp_path / "s").glob("variant*.html")
+    data = _page_data(anim.read_text())
+    T = np.array(data["fixed_frames"]["given"])
+    body = np.array([f["frames"]["body"] for f in data["frames"]])
+    assert len(body) == len(T) == 4 and np.abs(body - T).max() < 1e-9

@@ -226,3 +226,12 @@ def test_quiet_and_progress_on_a_terminal(quiet, tmp_path, monkeypatch, capsys):
 def test_progress_is_silent_when_not_a_terminal(tmp_path, capsys):
     assert main(["synth", str(EX / "seed001_rrr.toml"), "-o", str(tmp_path / "o")]) == 0
     assert capsys.readouterr().err == ""
+
+
+def test_demo_index_shows_a_drawing_per_drawn_study(demo):
+    folder, _ = demo
+    index = (folder / "index.html").read_text()
+    for stem in ("fourbar_dynamics", "seed000_swash_plate", "seed001_rrr"):
+        (img,) = re.findall(rf"<img src='({stem}/[^']+\.png)'", index)
+        assert (folder / img).read_bytes()[:4] == b"\x89PNG"
+        assert (folder / img).with_suffix(".html").exists()       # and its animation

@@ -177,5 +177,7 @@ def run(study: Study, out: Outputs, progress) -> dict:
             out.add(f"variant{v}.html", html_animation(scn, limit=FRAMES))
         return {"command": "draw", "study": "synth", "variants": [v for v, _, _ in scenes],
                 "not_drawn": skipped}
+    where = {"stiffness": " (its drawing is in its report: linkwright stiffness)"}
     raise study.error("study.command", f"linkwright draw draws analyze and synth studies; "
-                      f"this is a {study.command} study (its drawings come later)")
+                      f"this is a {study.command} study"
+                      + where.get(study.command, " (no drawing of its own)"))

@@ -259,6 +259,8 @@ def stiffness_report(hx: Hexapod, T, res, *, frame_name: str, wrench=None, posit
         summary["max_leg_force"] = quantity(float(np.abs(tau).max()), "N")
         summary["deflection_translation"] = quantity(d[:3], "m")
         summary["deflection_rotation"] = quantity(d[3:], "rad")
+    if figures:
+        _hexapod_drawing(rep, hx, T, res, V, None if wrench is None else tau)
     if positions is not None:
         rots = np.atleast_2d(rv) if rotations is None else rotations   # checked by map
         if progress is not None:
@@ -273,6 +275,26 @@ def stiffness_report(hx: Hexapod, T, res, *, frame_name: str, wrench=None, posit
                                            np.degrees(rots), "deg")
         summary["map_kt_min"] = quantity(float(mp.kt_min.min()), "N/m")
     return rep, tables, summary
+
+
+def _hexapod_drawing(rep: Report, hx: Hexapod, T, res, V, forces) -> None:
+    """The hexapod at its pose: legs coloured by force (when loaded), the weakest and
+    stiffest translation directions as arrows at K's reference point."""
+    from .draw import hexapod_scene
+    Rt = np.asarray(res.R, float).reshape(3, 3).T            # the result's axes → base axes
+    ref = np.asarray(res.reference, float).reshape(3)
+    L = 0.3 * float(np.linalg.norm(np.ptp(np.vstack([hx.base, hx.platform_points_world(T)]),
+                                          axis=0)))           # of the drawing's size
+    scn = hexapod_scene(hx.base, hx.platform, T, forces=forces, title="Hexapod at the pose",
+                        arrows={"weakest": (ref, L * (Rt @ V[:, 0]), "#d62728"),
+                                "stiffest": (ref, L * (Rt @ V[:, 2]), "#2ca02c")})
+    rep.heading("Drawing")
+    rep.drawing("hexapod", scn,
+                "The hexapod at the pose (base frame): Hooke crosses at the base, balls at "
+                "the platform; arrows at K's reference point along the weakest (red) and "
+                "stiffest (green) translation directions"
+                + ("; legs coloured by force, tension red, compression blue, the legend "
+                   "giving each force." if forces is not None else "."))
 
 
 def _map_section(rep: Report, mp: pd.DataFrame, hx: Hexapod, figures: bool = True) -> None:
@@ -666,6 +688,17 @@ def mechanism_report(mech, pose, res, *, platform: str, springs: dict, locked, p
         summary["deflection_translation"] = quantity(d[:3], "m")
         summary["deflection_rotation"] = quantity(d[3:], "rad")
         summary["loaded_change"] = quantity(change, DIMENSIONLESS)
+    if figures:
+        from .draw import scene
+        scn = scene(mech, pose, title=f"{title} at the pose")
+        A = 0.3 * scn.size()
+        scn.arrows = {name: (np.stack([p, A * (R.T @ v)])[None], col) for name, v, col in
+                      (("weakest", V[:, 2], "#d62728"), ("stiffest", V[:, 0], "#2ca02c"))}
+        rep.heading("Drawing")
+        rep.drawing("mechanism", scn,
+                    "The mechanism at the pose, joints drawn from the engine's joint frames; "
+                    "arrows at K's reference point along the weakest (red) and stiffest "
+                    "(green) translation directions.")
     if map_inputs is not None:
         from stiffness import mechanism_map
         if progress is not None:

@@ -15,7 +15,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-__all__ = ["Scene", "scene", "draw", "html_animation", "scene_json", "subsample"]
+__all__ = ["Scene", "scene", "hexapod_scene", "draw", "html_animation", "scene_json",
+           "subsample", "force_color"]
 
 
 @dataclass
@@ -30,7 +31,8 @@ class Scene:
     links : list of dict
         Per moving link: ``name`` and ``vertices``: the polyline's vertices as
         ``("joint", index, side)`` (side ``"a"`` or ``"b"``: the joint's frame on that
-        link) or ``("point", name)``.
+        link) or ``("point", name)``; optionally ``color`` (a CSS/matplotlib colour, e.g.
+        a leg coloured by its force) and ``note`` (shown in the legend).
     position : numpy.ndarray, shape (F, J, 3)
         Origin of each joint's frame on its link *a* (world).
     axis : numpy.ndarray, shape (F, J, 3)
@@ -47,6 +49,9 @@ class Scene:
     labels : list of str
         One caption per frame.
     title : str
+    arrows : dict of str to (numpy.ndarray (F, 2, 3), colour)
+        Arrows per frame: origin and vector (world, length units), and their colour
+        (e.g. a stiffness report's weakest and stiffest directions).
     """
 
     joints: list
@@ -60,6 +65,7 @@ class Scene:
     fixed_frames: dict = field(default_factory=dict)
     labels: list = field(default_factory=list)
     title: str = ""
+    arrows: dict = field(default_factory=dict)
 
     def __len__(self) -> int:
         return self.position.shape[0]
@@ -71,7 +77,8 @@ class Scene:
                      self.position_b[idx], self.axis_b[idx],
                      {k: v[idx] for k, v in self.paths.items()},
                      {k: v[idx] for k, v in self.frames.items()}, dict(self.fixed_frames),
-                     [self.labels[i] for i in idx] if self.labels else [], self.title)
+                     [self.labels[i] for i in idx] if self.labels else [], self.title,
+                     {k: (v[idx], c) for k, (v, c) in self.arrows.items()})
 
     def points(self) -> np.ndarray:
         """Every drawn point of every frame, ``(N, 3)`` (for the bounds)."""
@@ -79,6 +86,7 @@ class Scene:
         parts += [p.reshape(-1, 3) for p in self.paths.values()]
         parts += [f[..., :3, 3].reshape(-1, 3) for f in self.frames.values()]
         parts += [f[..., :3, 3].reshape(-1, 3) for f in self.fixed_frames.values()]
+        parts += [(a[:, 0] + a[:, 1]).reshape(-1, 3) for a, _ in self.arrows.values()]
         P = np.concatenate(parts)
         return P[np.all(np.isfinite(P), axis=1)]
 
@@ -176,6 +184,75 @@ def scene(mechanism, pose_or_poses, *, points=None, frames=None, fixed_frames=No
                  {k: v.reshape(-1, 4, 4) for k, v in _frames_arg("fixed_frames", fixed_frames,
                                                                 1).items()},
                  labels, title)
+
+
+def force_color(f: float, scale: float) -> str:
+    """A diverging colour of a force ``f`` against ``scale`` > 0 (N): tension red,
+    compression blue, zero grey."""
+    t = float(np.clip(f / scale, -1.0, 1.0)) if scale > 0 else 0.0
+    grey, end = np.array([0.6, 0.6, 0.6]), (np.array([0.84, 0.15, 0.16]) if t > 0 else
+                                            np.array([0.12, 0.35, 0.80]))
+    c = grey + abs(t) * (end - grey)
+    return "#" + "".join(f"{int(round(255 * v)):02x}" for v in c)
+
+
+def hexapod_scene(base, platform, pose, *, forces=None, arrows=None, title: str = "") -> Scene:
+    """The drawing data of a hexapod (or any parallel platform of legs between base and
+    platform points) at one pose: base joints as Hooke crosses on the ground, platform
+    joints as balls, each leg a link, optionally coloured by its axial force.
+
+    Parameters
+    ----------
+    base : array_like, shape (n, 3)
+        Base attachment points (ground frame, m).
+    platform : array_like, shape (n, 3)
+        Platform attachment points (platform frame, m).
+    pose : array_like, shape (4, 4)
+        The platform's pose in the ground frame.
+    forces : array_like, shape (n,), optional
+        Axial leg forces (N, tension positive): colours (:func:`force_color`) and legend.
+    arrows : dict of str to ((3,), (3,), colour), optional
+        Arrows to draw: origin, vector (m) and colour.
+    title : str
+
+    Returns
+    -------
+    Scene
+        One frame; joint ``k`` (k < n) is base point k, ``n + k`` platform point k.
+    """
+    B = np.asarray(base, float).reshape(-1, 3)
+    T = np.asarray(pose, float).reshape(4, 4)
+    Pw = np.asarray(platform, float).reshape(-1, 3) @ T[:3, :3].T + T[:3, 3]
+    n = len(B)
+    if Pw.shape != B.shape:
+        raise ValueError(f"platform: expected {n} points like base, got {len(Pw)}")
+    u = Pw - B
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    a = np.where(np.abs(u[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]])
+    p1 = np.cross(u, a)
+    p1 /= np.linalg.norm(p1, axis=1, keepdims=True)          # the cross's two pins ⊥ the leg
+    p2 = np.cross(u, p1)
+    joints = ([{"name": f"base {k + 1}", "kind": "U", "links": ["ground", f"leg {k + 1}"],
+                "ground": True} for k in range(n)]
+              + [{"name": f"platform {k + 1}", "kind": "S", "links": [f"leg {k + 1}", "platform"],
+                  "ground": False} for k in range(n)])
+    f = None if forces is None else np.asarray(forces, float).reshape(n)
+    scale = float(np.abs(f).max()) if f is not None else 0.0
+    links = []
+    for k in range(n):
+        ln = {"name": f"leg {k + 1}", "vertices": [("joint", k, "a"), ("joint", n + k, "a")]}
+        if f is not None:
+            ln["color"], ln["note"] = force_color(f[k], scale), f"{f[k]:.4g} N"
+        links.append(ln)
+    links.append({"name": "platform", "vertices": [("joint", n + k, "a") for k in range(n)],
+                  "color": "#444444"})
+    pos = np.concatenate([B, Pw])[None]
+    ax = np.concatenate([p1, u])[None]
+    ax_b = np.concatenate([p2, u])[None]
+    arr = {str(k): (np.stack([np.asarray(o, float), np.asarray(v, float)])[None], c)
+           for k, (o, v, c) in dict(arrows or {}).items()}
+    return Scene(joints, links, pos, ax, pos.copy(), ax_b, {}, {"platform": T[None]}, {},
+                 ["pose"], title, arr)
 
 
 def _order(verts, Fa, Fb, paths):
@@ -307,9 +384,10 @@ def draw(scn: Scene, ax=None, *, frames=None, figsize=(6.4, 5.6)):
             if len(V) >= 3:
                 V = np.vstack([V, V[:1]])
             if len(V) >= 2:
-                ax.plot(*V.T, color=_COLORS[k % len(_COLORS)], lw=3.0, alpha=alpha,
-                        solid_capstyle="round",
-                        label=link["name"] if i == len(frames) - 1 else None)
+                name = link["name"] + (f" ({link['note']})" if link.get("note") else "")
+                ax.plot(*V.T, color=link.get("color", _COLORS[k % len(_COLORS)]), lw=3.0,
+                        alpha=alpha, solid_capstyle="round",
+                        label=name if i == len(frames) - 1 else None)
         for j, jt in enumerate(scn.joints):
             p, z = scn.position[f, j], scn.axis[f, j]
             pb, zb = scn.position_b[f, j], scn.axis_b[f, j]
@@ -335,6 +413,9 @@ def draw(scn: Scene, ax=None, *, frames=None, figsize=(6.4, 5.6)):
                 _ground(ax, p, z, r, 1.0)
         for name, T in scn.frames.items():
             _triad(ax, T[f], 3 * r, alpha, "-")
+        for name, (A, col) in scn.arrows.items():
+            ax.quiver(*A[f, 0], *A[f, 1], color=col, lw=2.0, alpha=alpha,
+                      arrow_length_ratio=0.15, label=name if i == len(frames) - 1 else None)
     for name, T in scn.fixed_frames.items():
         for Tk in T:
             _triad(ax, Tk, 4 * r, 0.9, ":")
@@ -370,7 +451,7 @@ def _round(a):
 def scene_json(scn: Scene) -> dict:
     """The scene as JSON-ready data: static parts, the view (elevation, azimuth in degrees,
     as matplotlib's) and one entry per frame."""
-    links = [{"name": ln["name"], "color": _COLORS[k % len(_COLORS)],
+    links = [{"name": ln["name"], "color": ln.get("color", _COLORS[k % len(_COLORS)]),
               "vertices": [list(v) for v in ln["vertices"]]} for k, ln in enumerate(scn.links)]
     frames = []
     for f in range(len(scn)):
@@ -378,9 +459,11 @@ def scene_json(scn: Scene) -> dict:
                        "position": _round(scn.position[f]), "axis": _round(scn.axis[f]),
                        "position_b": _round(scn.position_b[f]), "axis_b": _round(scn.axis_b[f]),
                        "points": {k: _round(v[f]) for k, v in scn.paths.items()},
+                       "arrows": {k: _round(v[f]) for k, (v, _) in scn.arrows.items()},
                        "frames": {k: _round(v[f]) for k, v in scn.frames.items()}})
     P = scn.points()
     return {"title": scn.title, "joints": scn.joints, "links": links,
+            "arrow_colors": {k: c for k, (_, c) in scn.arrows.items()},
             "paths": {k: _round(v) for k, v in scn.paths.items()},
             "fixed_frames": {k: _round(v) for k, v in scn.fixed_frames.items()},
             "size": scn.size(), "center": _round((P.max(0) + P.min(0)) / 2),
@@ -478,6 +561,12 @@ function render(){
  for(var n3 in F.points){var A3=pr(F.points[n3]);g.fillStyle="#000";g.beginPath();
   g.arc(A3[0],A3[1],3,0,6.2832);g.fill();}
  for(var n4 in F.frames)triad(F.frames[n4],3*r,[]);
+ for(var n5 in (F.arrows||{})){var a0=F.arrows[n5][0],a1=add(a0,F.arrows[n5][1],1),
+  c5=S.arrow_colors[n5];line(a0,a1,c5,3);var P0=pr(a0),P1=pr(a1),
+  an=Math.atan2(P1[1]-P0[1],P1[0]-P0[0]);g.fillStyle=c5;g.beginPath();g.moveTo(P1[0],P1[1]);
+  g.lineTo(P1[0]-10*Math.cos(an-0.4),P1[1]-10*Math.sin(an-0.4));
+  g.lineTo(P1[0]-10*Math.cos(an+0.4),P1[1]-10*Math.sin(an+0.4));g.fill();
+  g.fillText(n5,P1[0]+4,P1[1]-4);}
  lab.textContent="frame "+(cur+1)+" of "+NF+": "+F.label;}
 function setFrame(i){cur=Math.max(0,Math.min(NF-1,i|0));sl.value=cur;render();}
 sl.addEventListener("input",function(){setFrame(+sl.value);});

@@ -377,14 +377,16 @@ class Report:
             outputs.add(name, page)
 
     def write(self, path, csv: dict | None = None) -> None:
-        """Write the Markdown to ``path``, its figures and ``csv`` (name → DataFrame, saved
-        with its index) beside it as ``STEM_NAME``, each atomically."""
+        """Write the Markdown to ``path``, its figures, animation pages and ``csv`` (name →
+        DataFrame, saved with its index) beside it as ``STEM_NAME``, each atomically."""
         path = Path(path)
         for name, df in (csv or {}).items():
             write_atomic(path.parent / f"{path.stem}_{name}", df.to_csv())
         for name, data in self.figures.items():
             with _atomic_target(path.parent / name) as tmp, open(tmp, "wb") as f:
                 f.write(data)
+        for name, page in self.pages.items():
+            write_atomic(path.parent / name, page)
         write_atomic(path, self.markdown())
 
 

@@ -226,3 +226,46 @@ def test_reports_embed_the_engine_drawing(tmp_path):
     T = np.array(data["fixed_frames"]["given"])
     body = np.array([f["frames"]["body"] for f in data["frames"]])
     assert len(body) == len(T) == 4 and np.abs(body - T).max() < 1e-9
+
+
+def test_hexapod_scene_is_the_hexapods_geometry():
+    """Legs run from the base points to the platform points moved by the pose (1e-12),
+    coloured by the sign of their force; the stiffness report's arrows are its weakest and
+    stiffest directions taken to the base axes."""
+    from closure import exp_so3
+    from linkwright.draw import hexapod_scene
+    from stiffness import Hexapod
+    a, b = np.radians([-15, 15, 105, 135, 225, 255]), np.radians([-45, 45, 75, 165, 195, 285])
+    base = np.c_[np.cos(a), np.sin(a), np.zeros(6)]
+    plat = 0.5 * np.c_[np.cos(b), np.sin(b), np.zeros(6)]
+    T = np.eye(4)
+    T[:3, :3], T[:3, 3] = exp_so3([0.1, -0.05, 0.2]), [0.05, -0.02, 1.1]
+    hx = Hexapod(base, plat, 1e7)
+    f = hx.leg_forces(T, [10.0, 0, -500, 0, 20, 0])
+    scn = hexapod_scene(base, plat, T, forces=f)
+    assert np.abs(scn.position[0, :6] - base).max() < 1e-12
+    assert np.abs(scn.position[0, 6:] - hx.platform_points_world(T)).max() < 1e-12
+    for k in range(6):
+        c = scn.links[k]["color"]
+        r, b = int(c[1:3], 16), int(c[5:7], 16)
+        assert (r > b) == (f[k] > 0) and scn.links[k]["vertices"] == [("joint", k, "a"),
+                                                                     ("joint", 6 + k, "a")]
+
+
+def test_stiffness_report_draws_its_directions(tmp_path):
+    assert main(["examples", "-o", str(tmp_path / "ex")]) == 0
+    assert main(["stiffness", str(tmp_path / "ex" / "hexapod.toml"), "-o", str(tmp_path / "h"),
+                 "--json", "--quiet"]) == 0
+    data = _page_data((tmp_path / "h" / "hexapod.html").read_text())
+    import pandas as pd
+    K = pd.read_csv(tmp_path / "h" / "stiffness.csv")[["dx", "dy", "dz"]].to_numpy()[:3]
+    w, V = np.linalg.eigh((K + K.T) / 2)
+    (arrow,) = [v for k, v in data["frames"][0]["arrows"].items() if k == "weakest"]
+    d = np.array(arrow[1]) / np.linalg.norm(arrow[1])
+    # the report's frame is the platform's: the arrow is R_platform · (weakest eigenvector)
+    R = np.array(data["frames"][0]["frames"]["platform"])[:3, :3]
+    assert abs(abs(d @ (R @ V[:, 0])) - 1) < 1e-9
+    forces = pd.read_csv(tmp_path / "h" / "leg_forces.csv").force_N.to_numpy()
+    for f, ln in zip(forces, data["links"][:6]):           # tension red, compression blue
+        c = ln["color"]
+        assert (int(c[1:3], 16) > int(c[5:7], 16)) == (f > 0)

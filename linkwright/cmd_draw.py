@@ -47,17 +47,20 @@ def analyze_scene(study: Study, mech: Mechanism | None = None, poses=None):
 
 
 def _chain_of(row):
-    """Joint kinds, Z-along-axis frames and the driven values ``(P, n_inputs)`` of a variant
-    row (``None`` where its joints cannot all be driven: S and U are not drawn yet)."""
+    """Joint kinds and Z-along-axis frames of a variant row (``None`` where its joints cannot
+    all be driven: a sphere's rotation is not in the table)."""
     kinds = [row[f"j{k}_type"] for k in (1, 2, 3)]
-    if any(t not in "RPCH" for t in kinds):
+    if any(t not in "RPCHU" for t in kinds):
         return None
     frames = []
     for k in (1, 2, 3):
         u = np.array([row[f"j{k}_u{c}"] for c in "xyz"], float)
         p = np.array([row[f"j{k}_{c}"] for c in "xyz"], float)
         u = u / np.linalg.norm(u)
-        a = np.array([1.0, 0, 0]) if abs(u[0]) < 0.9 else np.array([0, 1.0, 0])
+        if kinds[k - 1] == "U":          # the engine's U: z along the first axis, x the cross
+            a = np.array([row[f"u_cross_{c}"] for c in "xyz"], float)
+        else:
+            a = np.array([1.0, 0, 0]) if abs(u[0]) < 0.9 else np.array([0, 1.0, 0])
         x = a - (a @ u) * u
         x /= np.linalg.norm(x)
         frames.append(transform(np.stack([x, np.cross(u, x), u], -1), p))
@@ -73,7 +76,7 @@ def _values(row, kinds, n):
             cols.append(d if np.all(np.isfinite(np.asarray(d, float))) else q)
         else:
             cols.append(q)
-            if t == "C":
+            if t in "CU":                # C: slide; U: the cross axis's angle
                 cols.append(d)
     return np.asarray(cols, float).T
 
@@ -84,7 +87,7 @@ def synth_scenes(study: Study, best: int = BEST):
     Returns
     -------
     list of (variant, Scene, targets (P, 4, 4)); and the number of ranked variants not
-    drawn because their joints cannot all be driven (S, U).
+    drawn because their joints cannot all be driven (S).
     """
     from synthesis import Screw, SynthesisError, enumerate_dyads
     from synthesis.validate import task_scale
@@ -124,7 +127,7 @@ def variant_scenes(ranked, T, family: str, best: int = BEST):
     Returns
     -------
     list of (variant, Scene, targets (P, 4, 4)); and the number of ranked variants not
-    drawn because their joints cannot all be driven (S, U).
+    drawn because their joints cannot all be driven (S).
     """
     rows = ranked[ranked["rank"].notna()].sort_values("rank")
     out, skipped = [], 0
@@ -142,7 +145,7 @@ def variant_scenes(ranked, T, family: str, best: int = BEST):
             pitch = float(row[f"j{k + 1}_pitch"]) if t == "H" else None
             m.add_joint(f"j{k + 1}", t, links[k], links[k + 1], at=frames[k], pitch=pitch)
             m.add_input(f"j{k + 1}", 0)
-            if t == "C":
+            if t in "CU":
                 m.add_input(f"j{k + 1}", 1)
         pose = m.solve(_values(row, kinds, len(T)), continuation=False)
         v = int(row.variant)
@@ -171,7 +174,7 @@ def run(study: Study, out: Outputs, progress) -> dict:
         scenes, skipped = synth_scenes(study)
         if not scenes:
             raise study.error("synthesis.family", "no ranked variant can be drawn yet (the "
-                              "drawings drive R, P, C and H joints; S and U come later)")
+                              "drawings drive R, P, C, H and U joints; a sphere's rotation is not in the table)")
         for v, scn, _ in scenes:
             out.add(f"variant{v}.png", figure_png(draw_scene(scn), dpi=110))
             out.add(f"variant{v}.html", html_animation(scn, limit=FRAMES))

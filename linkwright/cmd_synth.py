@@ -330,7 +330,7 @@ def run(study: Study, out: Outputs, progress) -> dict:
                     f"Variant {v} driven by the engine to its joint values at the {len(T)} task "
                     "positions: the body's reached frames (solid triads) on the given ones "
                     "(dotted), the body origin's positions as points; earlier positions fainter."
-                    + (f" {not_drawn} better-ranked variant(s) with S or U joints are not drawn."
+                    + (f" {not_drawn} better-ranked variant(s) with a spherical joint are not drawn (its rotation is not in the table)."
                        if not_drawn else ""))
     rep.add_to(out)
     best = best_rows.iloc[0] if len(best_rows) else None

@@ -269,3 +269,22 @@ def test_stiffness_report_draws_its_directions(tmp_path):
     for f, ln in zip(forces, data["links"][:6]):           # tension red, compression blue
         c = ln["color"]
         assert (int(c[1:3], 16) > int(c[5:7], 16)) == (f > 0)
+
+
+def test_hooke_variants_are_drawn_at_the_task_poses():
+    """A dyad with a universal joint (RUR) is driven by the engine through its two angles:
+    its drawn body frames are the task poses (1e-9), for every drawn variant."""
+    from linkwright.cmd_draw import variant_scenes
+    from linkwright.cmd_synth import rank_variants
+    from synthesis import enumerate_dyads
+    from synthesis.validate import task_scale
+    from tests.synthesis.test_families import _generate_hooke
+    screws, T = _generate_hooke("RUR", 1)[:2]
+    df = enumerate_dyads("RUR", screws, azimuth=[0.3])
+    _, ext, _ = task_scale(list(T))
+    ranked = rank_variants(df, "link_length", np.zeros(3), ext, len(T))
+    scenes, skipped = variant_scenes(ranked, np.asarray(T), "RUR", best=3)
+    assert len(scenes) == 3 and skipped == 0
+    for _, scn, TT in scenes:
+        assert "U" in [j["kind"] for j in scn.joints]
+        assert np.abs(scn.frames["body"] - TT).max() < 1e-9

@@ -144,19 +144,55 @@ def verify_points(chains, targets, length: float = 1.0) -> np.ndarray:
     (all chains in one mechanism, one batched call) and the sphere centre's position is
     compared with its given positions (the sphere leaves the orientation free).
 
-    chains : list of (types (2), lines (2), joint_values (P, 2), centre (3,))
-    Returns each chain's largest centre error divided by ``length``.
+    Parameters
+    ----------
+    chains : list of (types (2), lines (2), joint_values (P, 2), centre (3,)[, pitches (2)])
+        Joint letters R, P, C, H, U of the two joints (ground first), their axes in
+        position 1, their driven values per position (angle rad, or slide length for P),
+        the sphere centre in position 1, and optionally the two pitches (length/rad, used
+        by H joints; required when a joint is H).
+    targets : array_like, shape (P, 4, 4)
+        The body's given poses.
+    length : float
+        Length the centre errors are divided by.
+
+    Returns
+    -------
+    numpy.ndarray, shape (len(chains),)
+        Each chain's largest centre error divided by ``length``.
+
+    Raises
+    ------
+    SynthesisError
+        A helical joint without a finite pitch (naming ``chains[v]: pitches``).
     """
     if not chains:
         return np.zeros(0)
     m = Mechanism()
-    _hang_chains(m, chains, 2)
-    pose = m.solve(np.concatenate([np.asarray(jv, float) for _, _, jv, _ in chains], 1))
+    frames = _frames_of([ln for c in chains for ln in c[1][:2]])
+    for v, c in enumerate(chains):
+        types = c[0]
+        pitches = c[4] if len(c) > 4 else None
+        links = ["ground", f"A{v}", f"B{v}"]
+        m.add_link(links[1])
+        m.add_link(links[2])
+        for k in range(2):
+            p = None
+            if types[k] == "H":
+                p = None if pitches is None else float(pitches[k])
+                if p is None or not np.isfinite(p):
+                    raise SynthesisError(f"chains[{v}]: pitches: joint {k + 1} is helical; "
+                                         f"expected a finite pitch, got {p}")
+            m.add_joint(f"v{v}j{k + 1}", types[k], links[k], links[k + 1], at=frames[2 * v + k],
+                        validate=False, pitch=p)
+            m.add_input(f"v{v}j{k + 1}")
+    pose = m.solve(np.concatenate([np.asarray(c[2], float) for c in chains], 1))
     T = np.asarray(targets, float)
     err = []
-    for v, (_, _, _, c) in enumerate(chains):
-        got = np.atleast_2d(pose.point(f"B{v}", c))
-        want = T[:, :3, :3] @ c + T[:, :3, 3]
+    for v, c in enumerate(chains):
+        centre = c[3]
+        got = np.atleast_2d(pose.point(f"B{v}", centre))
+        want = T[:, :3, :3] @ centre + T[:, :3, 3]
         err.append(np.linalg.norm(got - want, axis=1).max() / length)
     return np.array(err)
 

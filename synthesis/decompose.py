@@ -37,7 +37,9 @@ vector or a grid; the table has a column per parameter):
 """
 from __future__ import annotations
 
+import functools
 import itertools
+import math
 
 import numpy as np
 import pandas as pd
@@ -237,6 +239,10 @@ def _from_rr(lk) -> BinaryLink:
 
 
 # ------------------------------------------------------------------ verification
+#: chains per engine mechanism in :func:`verify_dyads` (measured: 32 is the fastest)
+_VERIFY_CHUNK = 32
+
+
 def verify_dyads(chains, targets, length: float) -> np.ndarray:
     """Drive three-joint chains (R, P, C, H) through their joint values with the closure
     engine (all in one mechanism, one batched call) and return each chain's largest pose
@@ -247,6 +253,12 @@ def verify_dyads(chains, targets, length: float) -> np.ndarray:
     """
     if not chains:
         return np.zeros(0)
+    if len(chains) > _VERIFY_CHUNK:
+        # the engine's batched solve carries dense (positions, coordinates, inputs)
+        # arrays, quadratic in the chains of one mechanism: mechanisms of a few dozen
+        # chains each are faster (same poses, same residuals: the chains are independent)
+        return np.concatenate([verify_dyads(chains[i:i + _VERIFY_CHUNK], targets, length)
+                               for i in range(0, len(chains), _VERIFY_CHUNK)])
     m = Mechanism()
     frames = _frames_of([ln for c in chains for ln in c[1]])
     cols = []
@@ -282,7 +294,11 @@ def _canonical(lines):
 def _flipped(u) -> bool:
     """Orientation rule of every axis in the table: its largest component (the first of
     equal ones) is positive."""
-    return bool(u[np.argmax(np.abs(u) - 1e-12 * np.arange(3))] < 0)
+    a = u.tolist() if isinstance(u, np.ndarray) else [float(x) for x in u]
+    if len(a) != 3 or any(x != x for x in a):                   # NaN: numpy's argmax rule
+        return bool(u[np.argmax(np.abs(u) - 1e-12 * np.arange(3))] < 0)
+    b = [abs(a[0]), abs(a[1]) - 1e-12, abs(a[2]) - 2e-12]
+    return a[max(range(3), key=b.__getitem__)] < 0
 
 
 def _oriented(lk: BinaryLink) -> BinaryLink:
@@ -301,14 +317,18 @@ def _oriented(lk: BinaryLink) -> BinaryLink:
 
 
 def _line_point_guard(ln: Line, reach: float) -> bool:
-    return bool(np.all(np.isfinite(ln.direction)) and np.all(np.isfinite(ln.point))
-                and np.abs(ln.point).max() < 1e8 * reach)
+    # plain floats: called three times per variant, numpy's reductions cost more than this
+    v = ln.direction.tolist() + ln.point.tolist()
+    return all(map(math.isfinite, v)) and max(map(abs, v[3:])) < 1e8 * reach
 
 
-def decomposed_dyads(family: str, screws, **choices) -> pd.DataFrame:
+def decomposed_dyads(family: str, screws, *, _verify: bool = True, **choices) -> pd.DataFrame:
     """Every variant of ``family`` (R, P, C, H joints) through the positions ``screws``
     by the decompositions of the module notes; see :func:`synthesis.enumerate_dyads` for
-    the table's columns and the keyword choices."""
+    the table's columns and the keyword choices.
+
+    ``_verify=False`` (internal: kinematic inversion verifies the reversed chains itself)
+    leaves the engine check out: every residual is NaN."""
     T, N, arr, reach = task_positions(family, screws, arrangements)
     unknown = set(choices) - set(FREE_PARAMETERS)
     if unknown:
@@ -332,7 +352,7 @@ def decomposed_dyads(family: str, screws, **choices) -> pd.DataFrame:
                                  f"{N} positions (its free parameters: "
                                  f"{', '.join(sorted(used)) or 'none'})")
     rows, chains = [], []
-    cache = {}
+    cache, rel, trans = {}, {}, {}
     for name, main, x, n_b, k in arr:
         mp = [pitches[1], pitches[2]] if name == "a" else [pitches[0], pitches[2]]
         xp = pitches[0] if name == "a" else pitches[1]
@@ -343,7 +363,7 @@ def decomposed_dyads(family: str, screws, **choices) -> pd.DataFrame:
             key = (main, tuple(mp), Pm)
             if key not in cache:
                 cache[key] = _main_links(main, mp, T[list(Pm)], reach, ch)
-            for lk, params, reason in cache[key]:
+            for li, (lk, params, reason) in enumerate(cache[key]):
                 for si, s in enumerate(Pm):
                     angles = ch["transition_angle"] if (x, family[2]) == ("R", "C") else [None]
                     for ang in angles:
@@ -358,11 +378,22 @@ def decomposed_dyads(family: str, screws, **choices) -> pd.DataFrame:
                         if lk is None:
                             rows.append(_failed(base, family, pitches, p, reason))
                             continue
-                        try:
-                            trs = _transitions(lk, family[2], pitches[2], x, T, s, si, rest,
-                                               reach, ang)
-                        except SynthesisError as e:
-                            rows.append(_failed(base, family, pitches, p, str(e)))
+                        # the transition depends on the main link, s and the angle only:
+                        # arrangements a and b with the same main link and transition kind
+                        # (J1 = J2) share it
+                        tkey = (key, li, x, s, ang)
+                        if tkey not in trans:
+                            try:
+                                if (s, pm_text) not in rel:
+                                    rel[s, pm_text] = T[rest] @ np.linalg.inv(T[s])
+                                trans[tkey] = _transitions(lk, family[2], pitches[2], x, T, s,
+                                                           si, rest, reach, ang,
+                                                           D=rel[s, pm_text])
+                            except SynthesisError as e:
+                                trans[tkey] = e
+                        trs = trans[tkey]
+                        if isinstance(trs, SynthesisError):
+                            rows.append(_failed(base, family, pitches, p, str(trs)))
                             continue
                         if not trs:
                             rows.append(_failed(base, family, pitches, p,
@@ -373,9 +404,10 @@ def decomposed_dyads(family: str, screws, **choices) -> pd.DataFrame:
                             rows.append(row)
                             if chain is not None:
                                 chains.append((len(rows) - 1, chain))
-    res = verify_dyads([c for _, c in chains], T, reach)
-    for (i, _), r in zip(chains, res):
-        rows[i]["residual"] = float(r)
+    if _verify:
+        res = verify_dyads([c for _, c in chains], T, reach)
+        for (i, _), r in zip(chains, res):
+            rows[i]["residual"] = float(r)
     for v, row in enumerate(rows, start=1):
         row["variant"] = v
     df = pd.DataFrame(rows)
@@ -402,10 +434,11 @@ def _moved(ln: Line, T) -> Line:
     return Line._exact(R @ ln.direction, R @ ln.point + T[:3, 3])
 
 
-def _transitions(lk: BinaryLink, y_kind, y_pitch, x, T, s, si, rest, reach, ang):
+def _transitions(lk: BinaryLink, y_kind, y_pitch, x, T, s, si, rest, reach, ang, D=None):
     Ts = T[s]
     y_line = _moved(lk.moving_axis, Ts)
-    D = T[rest] @ np.linalg.inv(Ts)
+    if D is None:                                 # T_l T_s⁻¹ (the caller may pass it cached)
+        D = T[rest] @ np.linalg.inv(Ts)
     return transition_joint(x, y_kind, y_line, y_pitch, D, reach, angle=ang)
 
 
@@ -435,17 +468,24 @@ def _variant(base, name, lk, tr, family, pitches, xp, params, Pm, si, rest, N, r
     row = dict(base)
     _geometry(row, family, lines, pitches)
     _params(row, params)
-    for p in range(N):
-        for k in range(3):
-            t = family[k]
-            row[f"q{k + 1}_pos{p + 1}"] = vals[p, k, 1] if t == "P" else vals[p, k, 0]
-            row[f"d{k + 1}_pos{p + 1}"] = vals[p, k, 1]
+    q = vals[:, :, 0].copy()
+    q[:, [k for k in range(3) if family[k] == "P"]] = vals[:, [k for k in range(3)
+                                                                if family[k] == "P"], 1]
+    row.update(zip(_value_columns(N), itertools.chain.from_iterable(
+        zip(q.ravel().tolist(), vals[:, :, 1].ravel().tolist()))))
     row["residual"] = np.nan
     row["reason"] = ""
     if not all(_line_point_guard(ln, reach) for ln in lines) or not np.all(np.isfinite(vals)):
         row["reason"] = "degenerate: an axis at infinity or undefined joint values"
         return row, None
     return row, (family, lines, pitches, vals)
+
+
+@functools.lru_cache(maxsize=None)
+def _value_columns(N):
+    """``q{k}_pos{p}, d{k}_pos{p}`` for p = 1…N, k = 1, 2, 3 (the order of the rows' keys)."""
+    return tuple(c for p in range(1, N + 1) for k in (1, 2, 3)
+                 for c in (f"q{k}_pos{p}", f"d{k}_pos{p}"))
 
 
 def _geometry(row, family, lines, pitches):
@@ -456,8 +496,8 @@ def _geometry(row, family, lines, pitches):
                 row[f"j{k}_{c}"] = np.nan
         else:
             ln = lines[k - 1]
-            row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"] = ln.direction
-            row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"] = ln.point
+            row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"] = ln.direction.tolist()
+            row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"] = ln.point.tolist()
         row[f"j{k}_pitch"] = pitches[k - 1]
 
 

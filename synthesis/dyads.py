@@ -363,52 +363,88 @@ def enumerate_dyads(family: str, screws, **choices) -> pd.DataFrame:
 
 
 def _inverse_family(fam, screws, choices):
-    """``fam`` by kinematic inversion of its reverse (see :func:`enumerate_dyads`)."""
-    from .decompose import _flipped, verify_dyads
+    """``fam`` by kinematic inversion of its reverse (see :func:`enumerate_dyads`).
+
+    The reverse family's table is turned column-wise (joints k ↔ 4 − k, joint values
+    negated), the regular rows' axes re-canonicalised and oriented as arrays, and every
+    regular chain verified again by the closure engine.
+    """
+    from .decompose import verify_dyads
     from .inversion import inverse_screws
     screws = _screws(screws, "screws")
     ch = dict(choices)
     if ch.get("pitch") is not None and np.ndim(ch["pitch"]) == 1 and len(ch["pitch"]) == 3:
         ch["pitch"] = list(ch["pitch"])[::-1]
-    df = enumerate_dyads(fam[::-1], inverse_screws(screws), **ch)
+    rev = fam[::-1]
+    if rev != "RRR" and _implemented()[rev][0] == "direct" and _family_module(rev) is None:
+        # a decomposed family: its chains are verified once, reversed, below
+        from .decompose import decomposed_dyads
+        df = decomposed_dyads(rev, inverse_screws(screws), _verify=False, **ch)
+    else:
+        df = enumerate_dyads(rev, inverse_screws(screws), **ch)
     T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
     _, _, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
     n = len(T)
-    rows, chains = [], []
-    for _, r in df.iterrows():
-        out = r.to_dict()
-        out["family"] = fam
-        out["order"] = f"inverse of {fam[::-1]}: {r['order']}"
-        for c in ("type", "ux", "uy", "uz", "x", "y", "z", "pitch"):
-            for k in (1, 2, 3):
-                out[f"j{k}_{c}"] = r[f"j{4 - k}_{c}"]
-        for p in range(1, n + 1):
-            for k in (1, 2, 3):
+    cols = list(df.columns)
+    out = {c: df[c].to_numpy(copy=True) for c in cols}
+    out["family"] = np.full(len(df), fam, dtype=object)
+    out["order"] = np.array([f"inverse of {fam[::-1]}: {o}" for o in df["order"].tolist()],
+                            dtype=object)
+    for c in ("type", "ux", "uy", "uz", "x", "y", "z", "pitch"):
+        for k in (1, 2, 3):
+            out[f"j{k}_{c}"] = df[f"j{4 - k}_{c}"].to_numpy(copy=True)
+    for p in range(1, n + 1):
+        for k in (1, 2, 3):
+            for q in ("q", "d"):
+                if f"{q}{4 - k}_pos{p}" in df.columns:
+                    out[f"{q}{k}_pos{p}"] = -df[f"{q}{4 - k}_pos{p}"].to_numpy(dtype=float)
+    out["residual"] = np.full(len(df), np.nan)
+    reg = np.flatnonzero(df["reason"].to_numpy() == "")
+    if reg.size:
+        # lines of the regular rows as arrays (m, 3): unit directions (as Line normalises)
+        U = [np.stack([out[f"j{k}_u{c}"][reg] for c in "xyz"], 1).astype(float)
+             for k in (1, 2, 3)]
+        P = [np.stack([out[f"j{k}_{c}"][reg] for c in "xyz"], 1).astype(float)
+             for k in (1, 2, 3)]
+        for k in range(3):
+            nrm = np.linalg.norm(U[k], axis=1)
+            if np.any(~np.isfinite(U[k])) or np.any(np.abs(nrm - 1) > 1e-6) or \
+                    np.any(~np.isfinite(P[k])):
+                raise SynthesisError(f"joint {k + 1}: a regular row of {fam[::-1]} has no "
+                                     "finite unit axis")
+            U[k] = U[k] / nrm[:, None]
+        # canonical chain (Line.canonical): joint 1 the foot from the origin, the others the
+        # foot of the common normal with the previous joint (parallel: the perpendicular foot)
+        P[0] = P[0] + np.einsum("ij,ij->i", -P[0], U[0])[:, None] * U[0]
+        for k in (1, 2):
+            u, v, w = U[k - 1], U[k], P[k - 1] - P[k]
+            b = np.einsum("ij,ij->i", u, v)
+            den = 1 - b * b
+            d, e = np.einsum("ij,ij->i", u, w), np.einsum("ij,ij->i", v, w)
+            par = den < 1e-12
+            t = np.where(par, e, (e - b * d) / np.where(par, 1.0, den))
+            P[k] = P[k] + t[:, None] * v
+        # orientation rule of the table (decompose._flipped): largest component positive
+        sg = []
+        for k in range(3):
+            i = np.argmax(np.abs(U[k]) - 1e-12 * np.arange(3), axis=1)
+            s = np.where(U[k][np.arange(len(reg)), i] < 0, -1.0, 1.0)
+            U[k] = s[:, None] * U[k]
+            sg.append(s)
+            for p in range(1, n + 1):
                 for q in ("q", "d"):
-                    if f"{q}{4 - k}_pos{p}" in r:
-                        out[f"{q}{k}_pos{p}"] = -r[f"{q}{4 - k}_pos{p}"]
-        if r["reason"] == "":
-            lines = [Line(np.array([out[f"j{k}_ux"], out[f"j{k}_uy"], out[f"j{k}_uz"]]),
-                          np.array([out[f"j{k}_x"], out[f"j{k}_y"], out[f"j{k}_z"]]))
-                     for k in (1, 2, 3)]
-            lines = _canonical_chain(lines)
-            vals = np.zeros((n, 3, 2))
-            for k in range(3):
-                sgn = -1.0 if _flipped(lines[k].direction) else 1.0
-                lines[k] = Line(sgn * lines[k].direction, lines[k].point)
-                for p in range(n):
-                    for q in ("q", "d"):
-                        out[f"{q}{k + 1}_pos{p + 1}"] *= sgn
-                    t = fam[k]
-                    vals[p, k] = (0.0 if t == "P" else out[f"q{k + 1}_pos{p + 1}"],
-                                  out[f"d{k + 1}_pos{p + 1}"])
-                out[f"j{k + 1}_ux"], out[f"j{k + 1}_uy"], out[f"j{k + 1}_uz"] = lines[k].direction
-                out[f"j{k + 1}_x"], out[f"j{k + 1}_y"], out[f"j{k + 1}_z"] = lines[k].point
-            pitches = [out[f"j{k}_pitch"] for k in (1, 2, 3)]
-            chains.append((len(rows), (fam, lines, pitches, vals)))
-        out["residual"] = np.nan
-        rows.append(out)
-    res = verify_dyads([c for _, c in chains], T, reach)
-    for (i, _), v in zip(chains, res):
-        rows[i]["residual"] = float(v)
-    return pd.DataFrame(rows)[list(df.columns)]
+                    out[f"{q}{k + 1}_pos{p}"][reg] *= s
+            for c, j in zip("xyz", range(3)):
+                out[f"j{k + 1}_u{c}"][reg] = U[k][:, j]
+                out[f"j{k + 1}_{c}"][reg] = P[k][:, j]
+        vals = np.zeros((len(reg), n, 3, 2))
+        for k in range(3):
+            for p in range(n):
+                if fam[k] != "P":
+                    vals[:, p, k, 0] = out[f"q{k + 1}_pos{p + 1}"][reg]
+                vals[:, p, k, 1] = out[f"d{k + 1}_pos{p + 1}"][reg]
+        pitches = np.stack([out[f"j{k}_pitch"][reg] for k in (1, 2, 3)], 1).tolist()
+        chains = [(fam, [Line._exact(U[k][i], P[k][i]) for k in range(3)], pitches[i], vals[i])
+                  for i in range(len(reg))]
+        out["residual"][reg] = verify_dyads(chains, T, reach)
+    return pd.DataFrame({c: out[c] for c in cols})

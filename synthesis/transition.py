@@ -101,9 +101,12 @@ def _screw_of(E):
 def _zero_slide_coeffs(D, u, m):
     """α, β, γ, δ of f(Δ, σ) = scalar dual part of q_D q_Y(−Δ, −σ) (see module notes)."""
     qD = dq_from_matrix(D)
+    # the dual scalar part of a product is the linear functional w · (the second factor):
+    # a₀b₄ − a⃗·b⃗_d + a₄b₀ − a⃗_d·b⃗, so f is four dot products (no dual-quaternion products)
+    w = np.concatenate([qD[4:5], -qD[5:8], qD[0:1], -qD[1:4]])
 
     def f(ang, sl):
-        return dq_mul(qD, _screw_dq(u, m, -ang, -sl))[4]
+        return float(w @ _screw_dq(u, m, -ang, -sl))
     a, b = f(0.0, 0.0), f(np.pi, 0.0)
     return a, b, f(0.0, 1.0) - a, f(np.pi, 1.0) - b
 

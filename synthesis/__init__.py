@@ -40,7 +40,11 @@ implemented_families  how each family is built (direct, by inversion)
 transition_joint, two_position_link   the family engine's parts
                     (synthesis.transition, .twopos; not in __all__)
 invert_chain, inverse_screws   kinematic inversion of a synthesised chain
+assemble, Assembly  two or more links sharing ground and body closed into an engine
+                    mechanism, swept from position 1: order, branch and dead-point
+                    defects, transmission quality (synthesis.assemble)
 """
+from .assemble import Assembly, assemble
 from .binary import BinaryLink
 from .cylindric import cc_direction_residual, cc_directions, cc_links, cr_links, rc_links
 from .complete import complete_dyads, least_squares_dyads
@@ -68,7 +72,8 @@ __all__ = ["Screw", "Line", "relative_screw", "RRLink", "rr_links", "rotation_ax
            "cc_directions", "pr_links", "rp_links", "pc_links", "cp_links", "rs_links_at",
            "sr_links", "ps_links", "sp_links", "hs_links", "sh_links", "ur_links", "up_links",
            "uh_links", "uc_links", "u_directions", "ph_links", "hp_links", "task_frame",
-           "azimuth_of", "complete_dyads", "least_squares_dyads", "implemented_families"]
+           "azimuth_of", "complete_dyads", "least_squares_dyads", "implemented_families",
+           "assemble", "Assembly"]
 
 #: importable names that are not in __all__ (the engine's parts; pyflakes sees them used)
 _NOT_IN_ALL = (transition_joint, two_position_link, verify_chains,

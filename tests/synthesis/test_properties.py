@@ -20,6 +20,7 @@ from synthesis import (cc_direction_residual, cc_directions, cc_links, cr_links,
 from synthesis import (azimuth_of, complete_dyads, hp_links, hs_links, implemented_families,
                        least_squares_dyads, ph_links, ps_links, rs_links_at, sh_links, sp_links,
                        sr_links, task_frame, u_directions, uc_links, uh_links, up_links, ur_links)
+from synthesis import assemble
 from synthesis.dyads import verify_chains
 from synthesis.rr import _rot
 
@@ -47,7 +48,7 @@ ROT4 = np.array([np.eye(3)] + [s.matrix()[:3, :3] for s in SEED])
 N_SCREWS = {"task_frame": None, "azimuth_of": None, "ps_links": 2, "sp_links": 2,
             "up_links": 2, "rs_links_at": 3, "sr_links": 3, "hs_links": 3, "sh_links": 3,
             "ur_links": 3, "uh_links": 3, "uc_links": 3, "complete_dyads": 4,
-            "least_squares_dyads": (3, None)}
+            "least_squares_dyads": (3, None), "assemble": (2, None)}
 
 
 def row_lines(row):
@@ -129,6 +130,8 @@ CASES = {
     "complete_dyads": (complete_dyads, dict(chain="CC", screws=SEED5)),
     "least_squares_dyads": (least_squares_dyads, dict(chain="RR", screws=SEED)),
     "implemented_families": (implemented_families, dict()),
+    "assemble": (assemble, dict(links=rr_links(SEED[0], SEED[1]), screws=SEED[:2], steps=60,
+                                tol=1e-9)),
 }
 SCREWS, LINES = {"other", "s1j", "s1k", "s12", "s13"}, {"previous", "other_line"}
 POSITIVE = {"tol", "length"}
@@ -159,6 +162,8 @@ def corruptions(fname, name, value):
         elif isinstance(n, tuple):
             out += [("too few", SEED7[:n[0] - 1])]
         return out
+    if name == "links":
+        return [("None", None), ("str", "RR"), ("one link", value[:1]), ("with an int", [value[0], 3])]
     if name == "chain":
         return [("None", None), ("int", 3), ("unknown", "XX"), ("list", ["R", "R"])]
     if name == "screws" and fname.startswith("cc_"):      # 2, 3 or 4 screws are all valid
@@ -186,7 +191,7 @@ def corruptions(fname, name, value):
         f["reason"] = "degenerate positions"
         return [("None", None), ("int", 3), ("missing column", value.drop("j2_uy")),
                 ("NaN axis", r), ("failed variant", f), ("dict missing", {"j1_type": "R"})]
-    if name in ("samples",):
+    if name in ("samples", "steps"):
         return [("float", 60.5), ("str", "60"), ("None", None), ("too few", 1), ("bool", True)]
     if isinstance(value, float):
         out = common + [("nan", np.nan), ("inf", np.inf), ("-inf", -np.inf), ("list", [1.0, 2.0]),
@@ -255,7 +260,7 @@ def test_the_tables_valid_arguments_work(fname):
 def test_every_public_function_is_covered_by_the_bad_input_table():
     import synthesis
     covered = {name.split(".")[0] for name in CASES} | {
-        "RRLink", "RSLink", "BinaryLink", "SynthesisError", "DYAD_COLUMNS", "JOINT_LETTERS", "families"}
+        "RRLink", "RSLink", "BinaryLink", "Assembly", "SynthesisError", "DYAD_COLUMNS", "JOINT_LETTERS", "families"}
     assert set(synthesis.__all__) <= covered
     assert families().shape[0] > 0
 

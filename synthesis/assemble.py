@@ -1,0 +1,229 @@
+"""Closing synthesised dyads into a mechanism and sweeping it for the classical defects.
+
+:func:`assemble` joins two or more binary links that share the ground and the body
+(two RR links → a Bennett 4R, RR + SS → an RRSS, …) into one closure
+:class:`~closure.Mechanism` assembled at position 1 (every joint coordinate zero there),
+checks its mobility, and drives one joint from position 1 through the task's positions
+by the engine's continuation (which stays on the branch it starts on).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from closure.frames import transform
+from closure.mechanism import Mechanism
+
+from .binary import BinaryLink
+from .errors import SynthesisError
+from .rr import RRLink
+from .rs import RSLink
+from .validate import integer, number, screws as _screws, task_scale
+from .verify import _frame_of, pose_errors
+
+__all__ = ["Assembly", "assemble"]
+
+
+@dataclass
+class Assembly:
+    """An assembled mechanism and its defect analysis.
+
+    Attributes
+    ----------
+    mechanism : closure.Mechanism
+        Links ``L1…Ln`` and ``body``; joints ``g<i>`` (ground–L<i>) and ``m<i>`` (L<i>–body).
+    mobility : int
+        The engine's mobility, idle freedoms (the spin of an S–S link) included.
+    idle : int
+        Number of idle freedoms (links with two spherical joints).
+    drive : str
+        The driven joint (R, H or P).
+    drive_values : numpy.ndarray, shape (P,)
+        The drive's coordinate at each task position (rad, or length for P).
+    travel : numpy.ndarray, shape (P,)
+        Drive travel from position 1 to each position in the sense of the sweep (rad or
+        length, ≥ 0 for angles).
+    pose_error : numpy.ndarray, shape (P,)
+        Body pose error at each position's drive value on the swept branch: the larger
+        of rotation (rad) and translation divided by the task's reach; inf where the
+        sweep stopped before.
+    loop_residual : numpy.ndarray, shape (P,)
+        The engine's loop-closure residual at those rows (dimensionless; inf if not reached).
+    reached : numpy.ndarray of bool, shape (P,)
+        ``pose_error <= tol``.
+    order_defect : bool
+        The travels of positions 2…P are not strictly increasing: the drive, turning
+        from position 1 toward position 2, meets the positions out of the task's order.
+    branch_defect : bool
+        A position is not reached on the branch swept from position 1 (it lies on
+        another branch or circuit of the assembly: every dyad passes it by construction).
+    dead_point : bool
+        The sweep stopped (a fold of the drive: "dead point", or "no assembly") or met a
+        near-singular configuration (condition above the engine's limit) before the last
+        position.
+    transmission : float
+        Transmission quality: the smallest inverse condition number (dimensionless, in
+        [0, 1]; 0 at a singularity) of the engine's Jacobian of the unknowns along the
+        sweep from position 1 to the last position reached.
+    sweep : pandas.DataFrame
+        The engine's sweep table.
+    """
+
+    mechanism: Mechanism
+    mobility: int
+    idle: int
+    drive: str
+    drive_values: np.ndarray
+    travel: np.ndarray
+    pose_error: np.ndarray
+    loop_residual: np.ndarray
+    reached: np.ndarray
+    order_defect: bool
+    branch_defect: bool
+    dead_point: bool
+    transmission: float
+    sweep: object = field(repr=False, default=None)
+
+    @property
+    def defects(self) -> bool:
+        """True when any defect (order, branch, dead point) was found."""
+        return bool(self.order_defect or self.branch_defect or self.dead_point)
+
+
+def _joints_of(link, v: int):
+    """``[(kind, frame, pitch, values (P,) or None)]`` for the fixed and moving joint."""
+    if isinstance(link, RRLink):
+        return [("R", _frame_of(link.fixed_axis), None, np.asarray(link.fixed_angles, float)),
+                ("R", _frame_of(link.moving_axis), None, np.asarray(link.moving_angles, float))]
+    if isinstance(link, RSLink):
+        return [("R", _frame_of(link.axis), None, np.asarray(link.angles, float)),
+                ("S", transform(None, link.centre), None, None)]
+    if isinstance(link, BinaryLink):
+        out = []
+        for k, kind in enumerate(link.types):
+            ax = link.fixed_axis if k == 0 else link.moving_axis
+            pitch = link.fixed_pitch if k == 0 else link.moving_pitch
+            ang = link.fixed_angles if k == 0 else link.moving_angles
+            sl = link.fixed_slides if k == 0 else link.moving_slides
+            if kind == "S":
+                out.append(("S", transform(None, ax.point), None, None))
+            elif kind in "RHP":
+                out.append((kind, _frame_of(ax), float(pitch) if kind == "H" else None,
+                            np.asarray(sl if kind == "P" else ang, float)))
+            elif kind == "C":
+                out.append(("C", _frame_of(ax), None, None))
+            else:
+                raise SynthesisError(f"links[{v}]: types {link.types!r}: assemble takes R, H, "
+                                     "C, P and S joints (not U)")
+        return out
+    raise SynthesisError(f"links[{v}]: expected an RRLink, RSLink or BinaryLink, got "
+                         f"{type(link).__name__}")
+
+
+def assemble(links, screws, *, drive: str | None = None, steps: int = 180,
+             tol: float = 1e-9) -> Assembly:
+    """Close binary links sharing ground and body into a mechanism and sweep it.
+
+    Parameters
+    ----------
+    links : sequence of RRLink, RSLink or BinaryLink (at least two)
+        Links through the same positions, ground joint first (joints R, H, C, P, S).
+    screws : sequence of Screw, length P − 1
+        The task: displacements S12…S1P from position 1.
+    drive : str, optional
+        The driven joint, ``"g<i>"`` (ground joint of link i, 1-based) or ``"m<i>"``; an
+        R, H or P joint.  Default ``"g1"``.
+    steps : int
+        Rows of the sweep per full turn of an angle drive (or over the travel of a P
+        drive), at least 8; the engine subdivides further to stay on its branch.
+    tol : float
+        Largest pose error (rad, or relative to the task's reach) of a reached position.
+
+    Returns
+    -------
+    Assembly
+
+    Raises
+    ------
+    SynthesisError
+        Bad arguments (named), links that do not have one joint value per position, or
+        a mechanism whose mobility less its idle freedoms is not 1.
+    """
+    if isinstance(links, (str, bytes)) or not isinstance(links, (list, tuple)):
+        raise SynthesisError(f"links: expected a list of at least two links, got "
+                             f"{type(links).__name__}")
+    links = list(links)
+    if len(links) < 2:
+        raise SynthesisError(f"links: expected at least two links, got {len(links)}")
+    try:
+        scr = _screws(screws, "screws")
+    except SynthesisError:
+        raise
+    except Exception as e:          # pragma: no cover - validate raises SynthesisError
+        raise SynthesisError(f"screws: expected a sequence of Screw ({e})") from None
+    if len(scr) < 1:
+        raise SynthesisError("screws: expected at least one screw (two positions)")
+    steps = integer(steps, "steps", low=8)
+    tol = number(tol, "tol", positive=True)
+    P = len(scr) + 1
+    T = np.array([np.eye(4)] + [s.matrix() for s in scr])
+    _, _, reach = task_scale(list(T[1:]), [s.axis for s in scr], [s.point for s in scr])
+    joints = [_joints_of(lk, v) for v, lk in enumerate(links)]
+    for v, js in enumerate(joints):
+        for kind, _, _, vals in js:
+            if vals is not None and vals.shape != (P,):
+                raise SynthesisError(f"links[{v}]: has joint values for {vals.shape[0]} "
+                                     f"positions, but screws give {P} positions")
+    drive = "g1" if drive is None else drive
+    names = [f"{c}{i + 1}" for i in range(len(links)) for c in "gm"]
+    if not isinstance(drive, str) or drive not in names:
+        raise SynthesisError(f"drive: expected one of {names}, got {drive!r}")
+    v, k = int(drive[1:]) - 1, 0 if drive[0] == "g" else 1
+    dkind, _, _, dvals = joints[v][k]
+    if dkind not in "RHP":
+        raise SynthesisError(f"drive: {drive} is a {dkind} joint; expected an R, H or P joint")
+    m = Mechanism([f"L{i + 1}" for i in range(len(links))] + ["body"])
+    for i, js in enumerate(joints):
+        for c, (kind, frame, pitch, _), a, b in zip("gm", js, ("ground", f"L{i + 1}"),
+                                                    (f"L{i + 1}", "body")):
+            m.add_joint(f"{c}{i + 1}", kind, a, b, at=frame, pitch=pitch)
+    idle = sum(1 for js in joints if js[0][0] == "S" and js[1][0] == "S")
+    mob = m.mobility
+    if mob - idle != 1:
+        raise SynthesisError(f"links: the assembled mechanism has mobility {mob} ({idle} idle "
+                             f"freedoms); assemble sweeps mechanisms of one degree of freedom")
+    m.add_input(drive)
+    angle = dkind != "P"
+    # the sense of travel: toward position 2 first (the short way for an angle)
+    d2 = dvals[1] - dvals[0]
+    if angle:
+        d2 = (d2 + np.pi) % (2 * np.pi) - np.pi
+    sense = 1.0 if d2 >= 0 else -1.0
+    travel = sense * (dvals - dvals[0])
+    if angle:
+        travel = travel % (2 * np.pi)
+    order = bool(np.any(np.diff(travel[1:]) <= 0)) or bool(np.any(travel[1:] <= 0))
+    end = float(travel.max())
+    span = 2 * np.pi if angle else max(end, 1e-300)
+    grid = np.linspace(0.0, end, max(2, int(np.ceil(steps * end / span)) + 1))
+    path = np.unique(np.concatenate([grid, travel]))
+    df, poses = m.sweep(dvals[0] + sense * path, return_pose=True)
+    ok = df["status"].isin(["ok", "near-singular"]).to_numpy()
+    n_ok = len(ok) if ok.all() else int(np.argmin(ok))
+    body = poses.kinematics(twists=False)["link"][:, m.links.index("body")]
+    err = np.full(P, np.inf)
+    res = np.full(P, np.inf)
+    for p in range(P):
+        row = int(np.searchsorted(path, travel[p]))
+        if row < n_ok:
+            rot, pos = pose_errors(body[row], T[p], reach)
+            err[p] = max(float(rot), float(pos))
+            res[p] = float(df["residual"].iloc[row])
+    cond = df["condition"].to_numpy()[:n_ok].astype(float)
+    near = bool(np.any(df["status"].to_numpy()[:n_ok] == "near-singular"))
+    reached = err <= tol
+    return Assembly(m, int(mob), idle, drive, dvals.copy(), travel, err, res, reached,
+                    order_defect=order, branch_defect=bool(not reached.all()),
+                    dead_point=bool(n_ok < len(ok) or near),
+                    transmission=float(np.min(1.0 / cond)) if cond.size else 0.0, sweep=df)

@@ -1,0 +1,114 @@
+"""synthesis.assemble: closing dyads into mechanisms and their defects (issue #14)."""
+import numpy as np
+import pytest
+
+from synthesis import Screw, SynthesisError, rr_links
+from synthesis.assemble import assemble
+
+SEED = [Screw.from_degrees([0, 0, 1], [0, 0, 0], 30, 0.7),
+        Screw.from_degrees([0.34202, 0, 0.939693], [0, 1.1, 0], 65, 0.5)]
+
+
+def _dist_twist(l1, l2):
+    """Common-normal length and sin of the twist angle between two lines (independent)."""
+    n = np.cross(l1.direction, l2.direction)
+    s = np.linalg.norm(n)
+    return abs((l2.point - l1.point) @ n) / s, s
+
+
+def test_bennett_from_seed_001():
+    links = rr_links(*SEED)
+    a = assemble(links, SEED)
+    assert a.mobility == 1 and a.idle == 0
+    assert np.all(a.loop_residual < 1e-12) and np.all(a.pose_error < 1e-12)
+    assert a.reached.all() and not a.branch_defect and not a.dead_point
+    assert 0 < a.transmission <= 1
+    g1, m1 = links[0].fixed_axis, links[0].moving_axis
+    g2, m2 = links[1].fixed_axis, links[1].moving_axis
+    a_ground, s_ground = _dist_twist(g1, g2)
+    a_body, s_body = _dist_twist(m1, m2)
+    a_l1, s_l1 = _dist_twist(g1, m1)
+    a_l2, s_l2 = _dist_twist(g2, m2)
+    assert abs(a_ground - a_body) < 1e-12 and abs(a_l1 - a_l2) < 1e-12
+    assert abs(s_ground - s_body) < 1e-12 and abs(s_l1 - s_l2) < 1e-12
+    assert abs(a_ground / s_ground - a_l1 / s_l1) < 1e-12
+
+
+def test_bad_inputs():
+    links = rr_links(*SEED)
+    for bad in (None, "RR", links[:1], [links[0], 3]):
+        with pytest.raises(SynthesisError, match="links"):
+            assemble(bad, SEED)
+    with pytest.raises(SynthesisError, match="screws"):
+        assemble(links, [SEED[0], None])
+    with pytest.raises(SynthesisError, match="positions"):
+        assemble(links, SEED[:1])
+    for bad in ("x1", "g3", 1):
+        with pytest.raises(SynthesisError, match="drive"):
+            assemble(links, SEED, drive=bad)
+    with pytest.raises(SynthesisError, match="steps"):
+        assemble(links, SEED, steps=2)
+    with pytest.raises(SynthesisError, match="tol"):
+        assemble(links, SEED, tol=-1.0)
+
+
+# ------------------------------------------------------------------ a constructed RRSS
+from synthesis import BinaryLink, Line, RRLink  # noqa: E402
+from synthesis.rr import _rot  # noqa: E402
+
+G = Line(np.array([0, 0, 1.0]), np.array([0.0, 0, 0]))
+W = Line(np.array([1.0, 0, 0]), np.array([0.0, 0, 0.8]))
+A, B0 = np.array([1.2, 0.9, 0.3]), np.array([0.5, 0.7, 1.1])
+ELL2 = np.sum((B0 - A) ** 2)
+
+
+def _phis(theta):
+    """Both roots φ of |G(θ) W(φ) B0 − A| = |B0 − A| (the two branches), in closed form."""
+    f = [np.sum(((_rot(G, theta) @ _rot(W, p) @ np.r_[B0, 1])[:3] - A) ** 2) - ELL2
+         for p in (0.0, np.pi / 2, np.pi)]
+    # f(φ) = a cos φ + b sin φ + c exactly (a circle's points, distance squared)
+    c = (f[0] + f[2]) / 2
+    a, b = f[0] - c, f[1] - c
+    r, ph = np.hypot(a, b), np.arctan2(b, a)
+    d = np.arccos(np.clip(-c / r, -1, 1))
+    return np.array([ph + d, ph - d])
+
+
+def _branch_a(theta):
+    """The root on the branch through (0, 0), followed in small steps of θ."""
+    phi = 0.0
+    for t in np.linspace(0, theta, 200)[1:]:
+        r = _phis(t)
+        phi = r[np.argmin(np.abs((r - phi + np.pi) % (2 * np.pi) - np.pi))]
+    return phi
+
+
+def _rrss(thetas, phis):
+    T = [_rot(G, t) @ _rot(W, p) for t, p in zip(thetas, phis)]
+    screws = [Screw.from_matrix(t) for t in T[1:]]
+    rr = RRLink(G, W, 0.8, np.pi / 2, np.array(thetas), np.array(phis), 0.0)
+    z = np.zeros(len(thetas))
+    ss = BinaryLink("SS", Line(np.array([0, 0, 1.0]), A), Line(np.array([0, 0, 1.0]), B0),
+                    np.nan, np.nan, z, z, z, z, 0.0)
+    return [rr, ss], screws
+
+
+def test_constructed_task_needs_a_branch_change():
+    th = [0.0, 0.3, 0.6]
+    other = _phis(0.6)
+    pa = _branch_a(0.6)
+    pb = other[np.argmax(np.abs((other - pa + np.pi) % (2 * np.pi) - np.pi))]
+    assert abs(((pb - pa + np.pi) % (2 * np.pi)) - np.pi) > 0.3    # two distinct branches
+    links, screws = _rrss(th, [0.0, _branch_a(0.3), pb])
+    a = assemble(links, screws)
+    assert a.mobility == 2 and a.idle == 1
+    assert list(a.reached) == [True, True, False]
+    assert a.branch_defect and not a.order_defect
+
+
+def test_constructed_task_reached_out_of_order():
+    th = [0.0, 0.6, 0.3]
+    links, screws = _rrss(th, [0.0, _branch_a(0.6), _branch_a(0.3)])
+    a = assemble(links, screws)
+    assert a.reached.all() and np.all(a.pose_error < 1e-10)
+    assert a.order_defect and not a.branch_defect

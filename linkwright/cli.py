@@ -74,6 +74,24 @@ def _parser():
                                     "overwrite a file.")
     it.add_argument("kind", choices=STUDY_COMMANDS, help="the study kind")
     it.add_argument("-o", "--out", help="the new file (default: KIND.toml; - for stdout)")
+    g = sub.add_parser("grid", help="every case of a study's [grid] table, on Dask or "
+                       "--serial → partitioned Parquet table",
+                       description="Run every case of the [grid] table of a study file "
+                       "(see docs/studies-on-dask.md) on a Dask cluster and write one table "
+                       "as partitioned Parquet under OUT as cases finish.")
+    g.add_argument("study", help="the study file (TOML) with a [grid] table")
+    g.add_argument("-o", "--out", help="output folder (default: linkwright-out/<study>-grid)")
+    g.add_argument("--scheduler", help="address of a running Dask scheduler "
+                   "(tcp://HOST:PORT; default: $DASK_SCHEDULER_ADDRESS, else a local cluster)")
+    g.add_argument("--workers", type=int, help="worker processes of the local cluster "
+                   "(default: sized to the machine)")
+    g.add_argument("--serial", action="store_true", help="run the partitions in this "
+                   "process, without Dask")
+    g.add_argument("--resume", action="store_true", help="keep the partitions already in "
+                   "OUT and run only the missing ones")
+    g.add_argument("--partition-size", type=int, help="cases per task (default: up to 16)")
+    g.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+    g.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     d = sub.add_parser("demo", help="run every shipped example study into an output folder")
     d.add_argument("-o", "--out", default="linkwright-demo", help="output folder")
     d.add_argument("--examples", help="folder of study files (default: the studies shipped "
@@ -186,6 +204,15 @@ def _dispatch(args, state: dict) -> int:
             with one_line_warnings("demo"):
                 summary = run_demo(args.examples, out, _commands(), Progress(args.quiet))
             out.commit()
+        elif args.command == "grid":
+            from .cmd_grid import run_grid
+            from .distributed import MissingExtraError
+            try:
+                with one_line_warnings(args.study):
+                    summary = run_grid(args, Progress(args.quiet), state)
+            except MissingExtraError as e:
+                print(f"linkwright: error: {e}", file=sys.stderr)
+                return 2
         elif args.command == "examples":
             return _examples(args, state)
         elif args.command == "schema":

@@ -31,7 +31,7 @@ complete_dyads      every real solution at N_max: RR (3 positions), CC (5), SS a
 least_squares_dyads RR, CC, SS through more positions than N_max, by least squares from
                     every exact solution of every N_max-subset
 verify_chains, verify_points, verify_links   engine verification (synthesis.verify; not in __all__)
-enumerate_dyads     every variant of a family of Kharatyan's Table 3 (41 of its 51 families,
+enumerate_dyads     every variant of a family of Kharatyan's Table 3 (47 of its 51 families,
                     and the reverses of those by kinematic inversion) as one table layout
                     verified by the engine, free parameters as keyword choices
                     (synthesis.decompose, .sphere_families, .sphere_middle, .hooke_families)

@@ -89,22 +89,12 @@ def synth_scenes(study: Study, best: int = BEST):
     list of (variant, Scene, targets (P, 4, 4)); and the number of ranked variants not
     drawn because their joints cannot all be driven (S).
     """
-    from synthesis import Screw, SynthesisError, enumerate_dyads
+    from synthesis import SynthesisError, enumerate_dyads
     from synthesis.validate import task_scale
 
-    from .cmd_synth import _axis, _degenerate, rank_variants
-    sec = study.section("synthesis")
-    family = sec.get("family", "str")
-    positions = study.sections("position")
-    screws = []
-    for p in positions:
-        try:
-            screws.append(Screw.from_degrees(_axis(p), p.get("point", "vec3"),
-                                             p.get("angle_deg", low=-360, high=360),
-                                             p.get("slide")))
-        except SynthesisError as e:
-            raise p.error("axis", str(e)) from None
-    _degenerate(study, positions, screws)
+    from .cmd_synth import rank_variants, task_screws
+    family = study.section("synthesis").get("family", "str")
+    screws = task_screws(study)
     try:
         df = enumerate_dyads(family, screws)
     except SynthesisError as e:

@@ -239,9 +239,9 @@ def _feet(a: Line, b: Line):
     return b.point + t * b.direction
 
 
-def run(study: Study, out: Outputs, progress) -> dict:
-    sec = study.section("synthesis")
-    family = sec.get("family", "str")
+def task_screws(study: Study) -> list:
+    """The screws S₁₂ … S₁N of a synth study's ``[[position]]`` tables, checked (an error
+    names the position's key; degenerate tasks are refused)."""
     screws = []
     positions = study.sections("position")
     for p in positions:
@@ -252,6 +252,13 @@ def run(study: Study, out: Outputs, progress) -> dict:
         except SynthesisError as e:
             raise p.error("axis", str(e)) from None
     _degenerate(study, positions, screws)
+    return screws
+
+
+def run(study: Study, out: Outputs, progress) -> dict:
+    sec = study.section("synthesis")
+    family = sec.get("family", "str")
+    screws = task_screws(study)
     crit = study.section("criterion", required=False)
     kind = crit.get("kind", "str", "link_length", choices=CRITERIA) if crit else "link_length"
     center = crit.get("center", "vec3", np.zeros(3)) if crit else np.zeros(3)

@@ -15,7 +15,6 @@ message in the ``error`` column.  Distribution and partitioned output are in
 """
 from __future__ import annotations
 
-import contextlib
 import copy
 import hashlib
 import itertools
@@ -267,20 +266,6 @@ def _is_scalar(x) -> bool:
     return x is None or isinstance(x, (bool, int, float, str, np.generic))
 
 
-@contextlib.contextmanager
-def _no_figures():
-    """Reports drawn without figures (PNG rendering is ~95 % of a stiffness case and a
-    case's report is discarded): the render layer's "no matplotlib" path, which every
-    report already takes when matplotlib is missing."""
-    from . import render
-    saved = render.have_matplotlib
-    render.have_matplotlib = lambda: False
-    try:
-        yield
-    finally:
-        render.have_matplotlib = saved
-
-
 def run_case(command: str, path, data: dict) -> dict:
     """Run one case (study tables ``data``) by the command's own code and return its
     flattened figures plus ``error`` (None, or ``Type: message`` when it raised)."""
@@ -288,12 +273,13 @@ def run_case(command: str, path, data: dict) -> dict:
     from .cli import _commands
     from .output import Outputs, Progress
     from .schema import dump, validate
+    from .render import figures_off
     from .study import Study
     try:
         model = validate(path, data, command)
         study = Study(path, dump(model), warn=lambda m: None)
         study.command = command
-        with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings(), _no_figures():
+        with tempfile.TemporaryDirectory() as tmp, warnings.catch_warnings(), figures_off():
             warnings.simplefilter("ignore")
             # outputs stay in memory: the Outputs set is never committed
             summary = _commands()[command](study, Outputs(Path(tmp) / "out", command),

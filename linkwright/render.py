@@ -19,6 +19,7 @@ Conventions
 from __future__ import annotations
 
 import base64
+import contextlib
 import html
 import io
 import math
@@ -32,7 +33,7 @@ import numpy as np
 import pandas as pd
 
 __all__ = ["DIMENSIONLESS", "fmt_num", "fmt_list", "fmt_q", "quantity", "cell", "header",
-           "have_matplotlib", "new_figure", "save_figure", "figure_png", "heat_map",
+           "have_matplotlib", "figures_off", "new_figure", "save_figure", "figure_png", "heat_map",
            "varying_axes", "Report", "write_atomic"]
 
 #: the unit of a dimensionless number (condition numbers, ratios, relative errors)
@@ -113,12 +114,32 @@ def header(name: str, unit: str | None) -> str:
 # --------------------------------------------------------------------------- figures
 
 
+#: cleared by :func:`figures_off` (reports then take their "no matplotlib" path)
+_FIGURES = {"on": True}
+
+
 def have_matplotlib() -> bool:
+    """Whether figures are drawn: matplotlib is installed and :func:`figures_off` is not
+    in effect."""
+    if not _FIGURES["on"]:
+        return False
     try:
         import matplotlib  # noqa: F401
     except ImportError:
         return False
     return True
+
+
+@contextlib.contextmanager
+def figures_off():
+    """Reports made inside draw no figures (e.g. a grid study's cases, whose reports are
+    discarded: PNG rendering is most of their time).  Process-wide: one case per thread."""
+    saved = _FIGURES["on"]
+    _FIGURES["on"] = False
+    try:
+        yield
+    finally:
+        _FIGURES["on"] = saved
 
 
 def _pyplot():

@@ -159,16 +159,22 @@ def _rot_about(O, R):
     return S
 
 
-def _joint(kind, u, p, q):
+PITCH = 0.3
+
+
+def _joint(kind, u, p, q, slide=0.0):
+    """An R, P, H (pitch ``PITCH``) or C (slide ``slide``) joint's screw at value q."""
     from synthesis.binary import _screw_matrix
-    return _screw_matrix(u, p, 0.0 if kind == "P" else q, q if kind == "P" else 0.0)
+    return _screw_matrix(u, p, 0.0 if kind == "P" else q,
+                         {"R": 0.0, "P": q, "H": PITCH * q, "C": slide}[kind])
 
 
 def generate_sphere(family: str, seed: int):
     """Positions of a random sphere or Hooke chain built by its construction: ``(screws, T,
-    error function of a table row against the generating chain, the direction(s) whose
-    azimuth is the free parameter)``.  Sphere at the end (RRS, PRS, RPS) or before joint 3
-    (RSR, SRR, RSP, SRP), or a Hooke joint (RUR, URR, RUP, URP)."""
+    error function of a table row against the generating chain, the chain's free
+    parameters as choices of enumerate_dyads)``.  Sphere at the end (RRS, PRS, RPS, RHS,
+    HRS, PHS, HPS) or before joint 3 (RSR, SRR, RSP, SRP, RSH, SRH), or a Hooke joint (RUR,
+    URR, RUP, URP, RUH, URH, RUC, URC); helical joints of pitch ``PITCH``."""
     from closure import exp_so3
     from synthesis import Screw
     from synthesis.sphere_families import sphere_arrangements
@@ -178,6 +184,7 @@ def generate_sphere(family: str, seed: int):
     O = rng.normal(size=3)
     if "U" in family:
         return _generate_hooke(family, rng, L, O)
+    from synthesis.spherical import azimuth_of, task_frame
     if family[2] == "S":
         arr = sphere_arrangements(family)
         name, main, x, n_b, k = arr[seed % len(arr)]
@@ -208,6 +215,9 @@ def generate_sphere(family: str, seed: int):
         T = np.array(T)
         main_dir = M[0]
     screws = [Screw.from_matrix(t) for t in T[1:]]
+    choices = {"azimuth": azimuth_of(main_dir, frame=task_frame(screws))}
+    if "H" in family:
+        choices["pitch"] = PITCH
 
     def error(r, size):
         e = np.linalg.norm(np.array([getattr(r, f"j{ks}_{c}") for c in "xyz"]) - O) / size
@@ -220,28 +230,41 @@ def generate_sphere(family: str, seed: int):
             if family[k - 1] != "P":
                 e = max(e, np.linalg.norm(np.cross(ln[0], p - ln[1])) / size)
         return e
-    return screws, T, error, main_dir
+    return screws, T, error, choices
 
 
 def _generate_hooke(family, rng, L, O):
     from synthesis import Screw
     from synthesis.hooke_families import _about, _rot, hooke_arrangements
+    from synthesis.spherical import azimuth_of, task_frame
     name, main, x, n_b, k = hooke_arrangements(family)[0]
     a = _unit(rng.normal(size=3))
     b = _unit(np.cross(a, rng.normal(size=3)))
     al, ga = ([0.0] + list(rng.uniform(-1.5, 1.5, n_b - 1)) for _ in range(2))
     q3 = [0.0] + list(rng.uniform(-2.5, 2.5, n_b - 1))
+    d3 = [0.0] + list(rng.uniform(-1, 1, n_b - 1))          # C joint's slides
     s, qx, d = int(rng.integers(n_b)), rng.uniform(-2.5, 2.5), rng.uniform(-2.5, 2.5)
+    e3 = rng.uniform(-1, 1)
     Xl, M, y = L[0], L[1], family[2]
 
     def U(i):
         return _about(_rot(a, al[i]) @ _rot(b, ga[i]), O)
-    T = [U(p) @ _joint(y, *M, q3[p]) for p in range(n_b)]
-    T.append(_joint("R", *Xl, qx) @ U(s) @ _joint(y, *M, q3[s] + d) if name == "a" else
-             U(s) @ _joint("R", *Xl, qx) @ _joint(y, *M, q3[s] + d))
+    T = [U(p) @ _joint(y, *M, q3[p], d3[p]) for p in range(n_b)]
+    J3 = _joint(y, *M, q3[s] + d, d3[s] + e3)
+    T.append(_joint("R", *Xl, qx) @ U(s) @ J3 if name == "a" else U(s) @ _joint("R", *Xl, qx) @ J3)
     T = np.array(T)
     ku, kx = (2, 1) if name == "a" else (1, 2)
     screws = [Screw.from_matrix(t) for t in T[1:]]
+    fr = task_frame(screws)
+    choices = {"azimuth": azimuth_of(M[0], frame=fr)}
+    if y == "P":
+        choices["axis_azimuth"] = azimuth_of(a, frame=fr)
+    elif y == "H":
+        choices["pitch"] = PITCH
+    elif y == "C":
+        flip = M[0][np.argmax(np.abs(M[0]))] < 0         # angles about the table's orientation
+        choices["centre"] = O
+        choices["transition_angle"] = (-1 if flip else 1) * np.arctan2(np.sin(d), np.cos(d))
 
     def error(r, size):
         e = max(np.linalg.norm(np.array([getattr(r, f"j{ku}_{c}") for c in "xyz"]) - O) / size,
@@ -253,7 +276,7 @@ def _generate_hooke(family, rng, L, O):
             if family[k - 1] != "P":
                 e = max(e, np.linalg.norm(np.cross(ln[0], p - ln[1])) / size)
         return e
-    return screws, T, error, (M[0], a)
+    return screws, T, error, choices
 
 
 def bench_families(quick: bool = False) -> list[str]:
@@ -306,27 +329,24 @@ def bench_families(quick: bool = False) -> list[str]:
                 worst = max(worst, o2.residual.max())
         lines_out.append(f"| {fam} | {len(T)} | {len(df)} | {len(ok)} | "
                          f"{1e3 * np.median(times):.1f} | {worst:.1e} | {hits}/{nc} |")
-    from synthesis.spherical import azimuth_of, task_frame
-    for fam in ("RRS", "PRS", "RPS", "RSR", "SRR", "RSP", "SRP", "RUR", "URR", "RUP", "URP"):
-        screws, T, _, _ = generate_sphere(fam, 0)
-        enumerate_dyads(fam, screws)
+    for fam in ("RRS", "PRS", "RPS", "RHS", "HRS", "PHS", "HPS", "RSR", "SRR", "RSP", "SRP",
+                "RSH", "SRH", "RUR", "URR", "RUP", "URP", "RUH", "URH", "RUC", "URC"):
+        slow = "H" in fam
+        if quick and slow and fam not in ("RHS", "RUH"):
+            continue
+        screws, T, _, ch0 = generate_sphere(fam, 0)
+        base = {"pitch": PITCH} if "H" in fam else {}
         times = []
-        for _ in range(1 if quick else 3):
+        for _ in range(1 if quick or slow else 3):
             t0 = time.perf_counter()
-            df = enumerate_dyads(fam, screws)
+            df = enumerate_dyads(fam, screws, **base)
             times.append(time.perf_counter() - t0)
         ok = df[df.reason == ""]
         worst = ok.residual.max() if len(ok) else np.nan
         hits = 0
-        for seed in range(1, n_chains + 1):
-            s2, T2, err, d = generate_sphere(fam, seed)
-            fr = task_frame(s2)
-            if "U" in fam:
-                ch = {"azimuth": azimuth_of(d[0], frame=fr)}
-                if fam[2] == "P":
-                    ch["axis_azimuth"] = azimuth_of(d[1], frame=fr)
-            else:
-                ch = {"azimuth": azimuth_of(d, frame=fr)}
+        nc = 1 if quick else (5 if slow else n_chains)
+        for seed in range(1, nc + 1):
+            s2, T2, err, ch = generate_sphere(fam, seed)
             d2 = enumerate_dyads(fam, s2, **ch)
             _, _, size = task_scale(T2)
             o2 = d2[d2.reason == ""]
@@ -334,7 +354,7 @@ def bench_families(quick: bool = False) -> list[str]:
             if len(o2):
                 worst = max(worst, o2.residual.max())
         lines_out.append(f"| {fam} | {len(T)} | {len(df)} | {len(ok)} | "
-                         f"{1e3 * np.median(times):.1f} | {worst:.1e} | {hits}/{n_chains} |")
+                         f"{1e3 * np.median(times):.1f} | {worst:.1e} | {hits}/{nc} |")
     lines_out += ["", "Baseline: multi-start `scipy.optimize.least_squares` (trf, finite "
                   "differences) on the same chain equations (arrangement a, main positions "
                   "1…n_b, transition from position 1, free parameters fixed), random starts; "

@@ -304,7 +304,12 @@ def enumerate_dyads(family: str, screws, **choices) -> pd.DataFrame:
         of all the screws; default 0, π/4, π/2, 3π/4).  A choice the family does not have
         raises.  RUR, URR take ``azimuth`` (the UR link's revolute axis), RUP, URP
         ``azimuth`` (the UP link's slide direction) and ``axis_azimuth`` (its U joint's
-        first axis), rad (see :mod:`synthesis.hooke_families`).
+        first axis), rad; RUH, URH ``azimuth`` (the helical axis) and ``pitch``; RUC, URC
+        ``azimuth`` (the cylinder axis), ``centre`` (the U joint's centre, length, (3,) or
+        (m, 3); default the task's centre moved by half its reach along each axis of the
+        task's reference frame) and ``transition_angle`` (rad, default −1, 1); see
+        :mod:`synthesis.hooke_families`.  The sphere families with a helical joint (RHS,
+        HRS, PHS, HPS, RSH, SRH) take ``azimuth`` and ``pitch``.
 
     Returns
     -------

@@ -67,21 +67,6 @@ for _f in ("CHC", "HCC"):
     _NOTES[(20, _f)] = ("implemented with the pitch given: main HC through 3 positions + C "
                         "transition through 2: N = 5; the printed N = 6 takes the pitch as a "
                         "design variable (HC through 4), not implemented")
-for _r, _f in ((5, "RSH"), (5, "SRH")):
-    _NOTES[(_r, _f)] = "not implemented: needs the SH link (sphere, helical) through 5 positions"
-for _r, _f in ((6, "RUH"), (7, "URH")):
-    _NOTES[(_r, _f)] = "not implemented: needs the UH link (Hooke joint, helical)"
-for _f in ("RUC", "URC"):
-    _NOTES[(9, _f)] = "not implemented: needs the UC link (Hooke joint, cylindric)"
-for _r, _f, _l, _n in ((11, "RUR", "UR", 5), (11, "URR", "UR", 5), (12, "RUP", "UP", 4),
-                       (12, "URP", "UP", 4)):
-    _NOTES[(_r, _f)] = (f"the {_l} link implemented is through {_n - 1} positions (its maximum "
-                        f"with isolated solutions), so the construction reaches N = {_n}, one "
-                        f"more than printed; the printed N = {_n - 1} would leave the {_l} link "
-                        "through one position fewer, with more free parameters")
-for _r, _f in ((16, "RHS"), (16, "HRS"), (17, "PHS"), (17, "HPS")):
-    _NOTES[(_r, _f)] = ("not implemented: needs the HS link with the pitch as a design variable "
-                        "(5 positions)")
 for _f in ("RCC", "CRC"):
     _NOTES[(5, _f)] = "also in row 19 (N = 5, main RC + C transition); both are implemented"
     _NOTES[(19, _f)] = "also in row 5 (N = 6, main CC through 5 + R transition); both implemented"

@@ -125,12 +125,14 @@ def test_fourbar_under_gravity_against_independent_reference():
 
 def test_energy_conserved_and_dissipation_balanced():
     _, d = fourbar_model(GEOM, MASSES, 0.3)
-    df = d.simulate((0, 10), [0.0], [1.0], t_eval=np.linspace(0, 10, 101), rtol=1e-12, atol=1e-12)
+    # 4 s: the crank swings through more than half a turn and back under gravity
+    df = d.simulate((0, 4), [0.0], [1.0], t_eval=np.linspace(0, 4, 41), rtol=1e-12, atol=1e-12)
+    assert np.ptp(df.A) > 3.0
     assert np.abs(df.energy - df.energy[0]).max() / abs(df.energy[0]) < 1e-8
     _, d2 = fourbar_model(GEOM, MASSES, 0.3)
     d2.add_damper("C", 0.8)
     d2.add_spring("D", 5.0, free=0.1)
-    df2 = d2.simulate((0, 5), [0.0], [1.0], t_eval=np.linspace(0, 5, 51), rtol=1e-12, atol=1e-12)
+    df2 = d2.simulate((0, 2), [0.0], [1.0], t_eval=np.linspace(0, 2, 21), rtol=1e-12, atol=1e-12)
     assert df2.dissipated.iloc[-1] > 0.05 * abs(df2.energy[0] - df2.potential[0]) or \
         df2.dissipated.iloc[-1] > 1e-3
     assert (np.diff(df2.energy) <= 1e-9).all()                    # energy only decreases
@@ -224,8 +226,9 @@ def test_crane_two_loops_two_dof_inverse_forward_and_energy():
     assert np.abs(fwd.balance).max() < 1e-6 * abs(fwd.energy[0])
 
 
-def test_stiff_method_and_dead_point_event():
-    # a stiff (implicit) scipy method on the simple pendulum
+def test_stiff_method_on_the_pendulum():
+    # a stiff (implicit) scipy method on the simple pendulum (the dead-point event of a
+    # four-bar driven into its toggle: test_dynamics_branches.test_toggle_still_stops_...)
     m = pendulum_chain(1)
     d = Dynamics(m, gravity=(0, -G, 0))
     d.add_body("l0", 2.0, (1, 0, 0))
@@ -234,18 +237,6 @@ def test_stiff_method_and_dead_point_event():
     ref = solve_ivp(lambda t, y: [y[1], -G * np.cos(y[0])], (0, 1), [0.3, 0.5], t_eval=t,
                     rtol=1e-12, atol=1e-12, method="DOP853")
     assert np.abs(df.j0 - ref.y[0]).max() < 1e-7
-    # a non-Grashof four-bar driven towards its toggle position: the event stops it there
-    a, b, c, dd = 2.0, 2.5, 1.5, 3.0
-    t_lim = np.arccos((a * a + dd * dd - (b + c) ** 2) / (2 * a * dd))
-    geom = dict(a=a, b=b, c=c, d=dd)
-    _, d4 = fourbar_model(geom, (1.0, 1.0, 1.0), 0.5)
-    d4.gravity = np.zeros(3)
-    out = d4.simulate((0, 5), [0.0], [0.0], drive=lambda t, x, xd: np.array([20.0]),
-                      rtol=1e-9, atol=1e-11)
-    sol = out.attrs["ivp"]
-    assert sol.status == 1                           # terminated by the dead-point event
-    assert abs(0.5 + out.A.iloc[-1] - t_lim) < 1e-3
-    assert out.condition.iloc[-1] > 1e6
 
 
 def test_given_joint_force_work_enters_the_energy_balance():

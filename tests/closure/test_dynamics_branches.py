@@ -87,6 +87,7 @@ def test_toggle_still_stops_with_the_trajectory():
                       rtol=1e-9, atol=1e-11)
     assert out.attrs["ivp"].status == 1 and out.attrs["status"] == "dead point"
     assert abs(0.5 + out.A.iloc[-1] - t_lim) < 1e-3
+    assert out.condition.iloc[-1] > 1e6
     assert out.flag.iloc[-1] != ""                      # the last row says why it is doubtful
     with pytest.raises(ClosureError):
         d4.m.solve(t_lim - 0.5 + 0.05)

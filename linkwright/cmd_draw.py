@@ -89,20 +89,8 @@ def synth_scenes(study: Study, best: int = BEST):
     list of (variant, Scene, targets (P, 4, 4)); and the number of ranked variants not
     drawn because their joints cannot all be driven (S).
     """
-    from synthesis import SynthesisError, enumerate_dyads
-    from synthesis.validate import task_scale
-
-    from .cmd_synth import rank_variants, task_screws
-    family = study.section("synthesis").get("family", "str")
-    screws = task_screws(study)
-    try:
-        df = enumerate_dyads(family, screws)
-    except SynthesisError as e:
-        raise study.error("synthesis.family" if "family" in str(e) else "position", str(e)) \
-            from None
-    T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
-    _, extent, reach = task_scale(list(T), [s.axis for s in screws], [s.point for s in screws])
-    size = extent if extent > 0 else (reach if reach > 0 else 1.0)
+    from .cmd_synth import rank_variants, synthesise
+    family, _, df, T, size = synthesise(study)
     crit = study.section("criterion", required=False)
     kind = crit.get("kind", "str", "link_length") if crit else "link_length"
     center = crit.get("center", "vec3", np.zeros(3)) if crit else np.zeros(3)

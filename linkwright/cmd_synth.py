@@ -115,60 +115,108 @@ def _line(row, k):
             np.array([row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"]], float))
 
 
-def _twist(row, k, G):
-    """The twist of joint ``k`` (1-based) moved by ``G`` (4x4): R: (u, p × u); P: (0, u);
-    None for other joints (their Jacobian columns are not tabulated here)."""
+def _joint_twists(row, k, G, p):
+    """The unit twists ``(6,)`` of joint ``k`` (1-based) at position ``p`` with the joint
+    placed by ``G`` (4x4): R (u, c × u); H (u, c × u + h u); P (0, u); C both of R and P;
+    U its first axis a and its cross axis b turned by the first angle; S three rotations
+    about the centre.  None where the table lacks what is needed."""
     t = row[f"j{k}_type"]
-    u, p = _line(row, k)
-    u, p = G[:3, :3] @ u, G[:3, :3] @ p + G[:3, 3]
-    if t == "R":
-        return np.r_[u, np.cross(p, u)]
+    u, c = _line(row, k)
+    R, c = G[:3, :3], G[:3, :3] @ c + G[:3, 3]
+    u = R @ u
+    if t in "RH":
+        h = float(row[f"j{k}_pitch"]) if t == "H" else 0.0
+        return [np.r_[u, np.cross(c, u) + h * u]]
     if t == "P":
-        return np.r_[np.zeros(3), u]
+        return [np.r_[np.zeros(3), u]]
+    if t == "C":
+        return [np.r_[u, np.cross(c, u)], np.r_[np.zeros(3), u]]
+    if t == "S":
+        return [np.r_[e, np.cross(c, e)] for e in np.eye(3)]
+    if t == "U":
+        al = _value(row, f"q{k}_pos{p}")
+        b = np.array([row.get("u_cross_x"), row.get("u_cross_y"), row.get("u_cross_z")], float)
+        if al is None or not np.all(np.isfinite(b)):
+            return None
+        b = _rotation(u, al) @ (R @ b)          # the cross axis turned by α about a
+        return [np.r_[u, np.cross(c, u)], np.r_[b, np.cross(c, b)]]
     return None
 
 
-def _motion(kind, row, k, q):
-    """The 4x4 displacement of joint ``k`` by ``q``: a rotation about its line (R) or a
-    slide along it (P)."""
-    u, p = _line(row, k)
-    u = u / np.linalg.norm(u)
+def _value(row, key):
+    try:
+        v = float(row.get(key, np.nan))
+    except (TypeError, ValueError):
+        return None
+    return v if np.isfinite(v) else None
+
+
+def _rotation(u, q):
+    K = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    return np.eye(3) + np.sin(q) * K + (1 - np.cos(q)) * K @ K
+
+
+def _about(R, c, slide=np.zeros(3)):
     M = np.eye(4)
-    if kind == "R":
-        c, s = np.cos(q), np.sin(q)
-        K = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
-        R = c * np.eye(3) + s * K + (1 - c) * np.outer(u, u)
-        M[:3, :3], M[:3, 3] = R, p - R @ p
-    else:
-        M[:3, 3] = q * u
+    M[:3, :3], M[:3, 3] = R, c - R @ c + slide
     return M
+
+
+def _motion(row, k, p):
+    """The 4x4 displacement of joint ``k`` (1-based) at position ``p`` by its tabulated
+    values (in the joint's own first-position placement), or None where they are missing
+    (a sphere's rotation is not in the table)."""
+    t = row[f"j{k}_type"]
+    u, c = _line(row, k)
+    u = u / np.linalg.norm(u)
+    q = _value(row, f"q{k}_pos{p}")
+    if t == "S" or q is None:
+        return None
+    if t == "P":
+        return _about(np.eye(3), c, q * u)
+    if t in "RH":
+        h = float(row[f"j{k}_pitch"]) if t == "H" else 0.0
+        return _about(_rotation(u, q), c, h * q * u)
+    d = _value(row, f"d{k}_pos{p}")
+    if d is None:
+        return None
+    if t == "C":
+        return _about(_rotation(u, q), c, d * u)
+    b = np.array([row["u_cross_x"], row["u_cross_y"], row["u_cross_z"]], float)
+    return _about(_rotation(u, q) @ _rotation(b, d), c)           # U: Rot(a, α) Rot(b, γ)
+
+
+def chain_jacobian(row, p: int):
+    """The chain's Jacobian at position ``p`` (1-based): one column per joint coordinate,
+    the joint's unit twist (ω, v) (v: the velocity of the point at the origin) with the
+    joints before it moved by the variant's joint values; None where the values needed
+    are not tabulated (a sphere before the last joint)."""
+    G = np.eye(4)
+    cols = []
+    for k in (1, 2, 3):
+        tw = _joint_twists(row, k, G, p)
+        if tw is None:
+            return None
+        cols += tw
+        if k < 3:
+            M = _motion(row, k, p)
+            if M is None:
+                return None
+            G = G @ M
+    return np.array(cols).T
 
 
 def chain_condition(row, n_positions: int, size: float) -> float:
     """The worst (largest) condition number, over the task's positions, of the chain's
-    Jacobian: the joints' twists (moment rows divided by the task's size, so it is
-    dimensionless) with the joints moved to each position by the variant's joint
-    values.  Large near a singular pose (axes becoming dependent), where the dyad
-    transmits motion and force poorly; NaN when the joint values are not tabulated."""
+    Jacobian (:func:`chain_jacobian`, moment rows divided by the task's size, so it is
+    dimensionless).  Large near a singular pose (joint screws becoming dependent),
+    where the dyad transmits motion and force poorly; NaN when the joint values needed
+    are not tabulated."""
     worst = 0.0
     for p in range(1, n_positions + 1):
-        G = np.eye(4)
-        cols = []
-        for k in (1, 2, 3):
-            tw = _twist(row, k, G)
-            if tw is None:
-                return np.nan
-            cols.append(tw)
-            if k < 3:
-                q = row.get(f"q{k}_pos{p}", np.nan)
-                try:
-                    q = float(q)
-                except (TypeError, ValueError):
-                    return np.nan
-                if not np.isfinite(q):
-                    return np.nan
-                G = G @ _motion(row[f"j{k}_type"], row, k, q)
-        J = np.array(cols).T
+        J = chain_jacobian(row, p)
+        if J is None:
+            return np.nan
         J[3:] /= size
         sv = np.linalg.svd(J, compute_uv=False)
         worst = max(worst, sv[0] / sv[-1] if sv[-1] > 0 else np.inf)
@@ -255,25 +303,80 @@ def task_screws(study: Study) -> list:
     return screws
 
 
-def run(study: Study, out: Outputs, progress) -> dict:
+#: study key → (enumerate_dyads choice, factor to the choice's unit)
+CHOICE_KEYS = {"pitch": ("pitch", 1.0), "azimuth_deg": ("azimuth", np.pi / 180),
+               "axis_azimuth_deg": ("axis_azimuth", np.pi / 180),
+               "transition_angle_deg": ("transition_angle", np.pi / 180),
+               "fixed_direction": ("fixed_direction", 1.0),
+               "slide_direction": ("slide_direction", 1.0),
+               "prismatic_slide": ("prismatic_slide", 1.0), "centre": ("centre", 1.0)}
+
+
+def task_choices(study: Study) -> dict:
+    """The free parameters of a synth study's ``[synthesis]`` table as choices of
+    :func:`synthesis.enumerate_dyads` (angles converted from degrees to radians)."""
+    sec = study.section("synthesis")
+    out = {}
+    for key, (name, f) in CHOICE_KEYS.items():
+        v = sec.get(key, "any", None)
+        if v is not None:
+            out[name] = np.asarray(v, float) * f
+    return out
+
+
+def synthesise(study: Study):
+    """A synth study's enumeration: ``(family, screws, table, T (P, 4, 4), size)``; an
+    error names the study key at fault (a choice the family does not have, a missing
+    pitch, positions the family cannot take)."""
     sec = study.section("synthesis")
     family = sec.get("family", "str")
     screws = task_screws(study)
+    choices = task_choices(study)
+    try:
+        df = enumerate_dyads(family, screws, **choices)
+    except SynthesisError as e:
+        msg = str(e)
+        key = next((k for k, (n, _) in CHOICE_KEYS.items() if msg.startswith(n + ":")
+                    or msg.startswith(n + ",")), None)
+        raise study.error(f"synthesis.{key}" if key else "position"
+                          if msg.startswith("screws") else "synthesis.family"
+                          if "family" in msg else "position", msg) from None
+    T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
+    _, extent, reach = task_scale(list(T), [s.axis for s in screws], [s.point for s in screws])
+    size = extent if extent > 0 else (reach if reach > 0 else 1.0)
+    return family, screws, df, T, size
+
+
+#: the scalar free-parameter columns of the variant tables and their units
+PARAMETER_UNITS = {"azimuth": "rad", "axis_azimuth": "rad", "transition_angle": "rad",
+                   "prismatic_slide": "m", "pitch": "m/rad", "root": DIMENSIONLESS}
+
+
+def _how_columns(df: pd.DataFrame) -> list[str]:
+    """The columns that say how a variant was built: RRR's mechanism and RR solution, or
+    the arrangement, the transition, the root and the scalar free parameters."""
+    if "rr" in df:
+        return ["mechanism", "rr"]
+    return [c for c in ("arrangement", "main_link", "transition", "transition_position",
+                        *PARAMETER_UNITS) if c in df]
+
+
+def _how(row) -> str:
+    if "rr" in row:
+        return f"mechanism {row.mechanism}, RR solution {int(row.rr)}"
+    return f"{row.order}" if "order" in row else ""
+
+
+def run(study: Study, out: Outputs, progress) -> dict:
     crit = study.section("criterion", required=False)
     kind = crit.get("kind", "str", "link_length", choices=CRITERIA) if crit else "link_length"
     center = crit.get("center", "vec3", np.zeros(3)) if crit else np.zeros(3)
-    progress(f"synthesising {family} through {len(screws) + 1} positions")
-    try:
-        df = enumerate_dyads(family, screws)
-    except SynthesisError as e:
-        raise study.error("synthesis.family" if "family" in str(e) else "position", str(e)) \
-            from None
+    family = study.section("synthesis").get("family", "str")
+    progress(f"synthesising {family} through {len(study.sections('position')) + 1} positions")
+    family, screws, df, T, size = synthesise(study)
     if len(df) and not (df.reason == "").any():
         raise study.error("position", "no regular dyad through these positions: "
                           f"{df.reason.iloc[0]}")
-    T = [np.eye(4)] + [s.matrix() for s in screws]
-    _, extent, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
-    size = extent if extent > 0 else (reach if reach > 0 else 1.0)
     ranked = rank_variants(df, kind, center, size, len(T), progress=progress)
     out.add_csv("variants.csv", ranked)
     best_rows = ranked[ranked["rank"].notna()].sort_values("rank")
@@ -286,6 +389,9 @@ def run(study: Study, out: Outputs, progress) -> dict:
         b = best_rows.iloc[0]
         why = (f"it stays away from singular poses (worst Jacobian condition "
                f"{fmt_num(b.condition, 3)} ≤ {fmt_num(COND_OK)})" if b.condition <= COND_OK
+               else "its Jacobian condition is not computed (the rotation of its spherical "
+                    "joint before the last joint is not in the table)"
+               if not np.isfinite(b.condition)
                else f"no variant stays below condition {fmt_num(COND_OK)}; its worst "
                     f"condition is {fmt_num(b.condition, 3)}")
         runner = ""
@@ -294,7 +400,7 @@ def run(study: Study, out: Outputs, progress) -> dict:
             runner = (f" The next, variant {int(s2.variant)}, has criterion "
                       f"{fmt_q(s2.criterion, 'm')} and condition {fmt_num(s2.condition, 3)}.")
         rep.findings(
-            f"Best variant: {int(b.variant)} (mechanism {b.mechanism}, RR solution {int(b.rr)}): "
+            f"Best variant: {int(b.variant)} ({_how(b)}): "
             f"{kind} = {fmt_q(b.criterion, 'm')}, {fmt_num(b.size_ratio, 3)} times the task's "
             f"size {fmt_q(size, 'm')} (links {fmt_q(b.link1, 'm')} and {fmt_q(b.link2, 'm')}, "
             f"offset {fmt_q(b.offset, 'm')}); {why}." + runner,
@@ -311,16 +417,19 @@ def run(study: Study, out: Outputs, progress) -> dict:
              f"against the task's size {fmt_q(size, 'm')}, then by the condition. Both keys "
              "are rounded to 4 significant digits, so round-off never reorders them.")
     rep.heading(f"Ranked variants (criterion: {kind})")
-    cols = ["rank", "variant", "mechanism", "rr", "criterion", "size_ratio", "link1", "link2",
+    how = _how_columns(ranked)
+    cols = ["rank", "variant", *how, "criterion", "size_ratio", "link1", "link2",
             "offset", "condition", "residual", "check"]
     units = {"criterion": "m", "size_ratio": DIMENSIONLESS, "link1": "m", "link2": "m",
-             "offset": "m", "condition": DIMENSIONLESS, "residual": DIMENSIONLESS}
+             "offset": "m", "condition": DIMENSIONLESS, "residual": DIMENSIONLESS,
+             **{c: PARAMETER_UNITS[c] for c in how if c in PARAMETER_UNITS}}
     show = best_rows[cols].assign(rank=best_rows["rank"].astype(int))
     rep.table(show, "{:.4g}", units=units)
     if len(excluded):
         rep.heading("Excluded variants")
-        rep.table(excluded[["variant", "mechanism", "rr", "residual", "check"]], "{:.3g}",
-                  units={"residual": DIMENSIONLESS})
+        rep.table(excluded[["variant", *how, "residual", "check"]], "{:.3g}",
+                  units={"residual": DIMENSIONLESS,
+                         **{c: PARAMETER_UNITS[c] for c in how if c in PARAMETER_UNITS}})
     rep.heading("Axes of the best variant (first position)")
     if len(best_rows):
         best = best_rows.iloc[0]

@@ -87,11 +87,46 @@ class StudySection(Section):
 
 # --------------------------------------------------------------------------- synth
 
-class SynthesisSection(Section):
-    """The dyad family to synthesise."""
+Values = Union[Number, Annotated[list[Number], Field(min_length=1)]]
+Vec3s = Union[Vec3, Annotated[list[Vec3], Field(min_length=1)]]
+_VALUES = "a number, or a list of numbers (each is enumerated)"
+_VEC3S = "[x, y, z], or a list of them (each is enumerated)"
 
-    family: Name = F(doc="dyad family of seed 001's Table 3 (implemented: RRR)",
-                     example="RRR")
+
+class SynthesisSection(Section):
+    """The dyad family to synthesise and its free parameters (the choices of
+    `synthesis.enumerate_dyads`): each a value or a list the enumeration runs over; a
+    choice the family does not have is an error, an absent one takes its default grid."""
+
+    family: Name = F(doc="dyad family: three joint letters from the ground to the body "
+                         "(R, P, C, H, S, U) of seed 001's Table 3 or its reverse; "
+                         "`synthesis.families()` lists the 51 families and how many "
+                         "positions each takes", example="RRR")
+    pitch: Optional[Number] = F(None, "the helical joints' pitch: slide per radian of "
+                                "rotation (required by the families with an H joint)",
+                                unit="m/rad", example=0.05, default_text="(no helical joint)")
+    azimuth_deg: Optional[Values] = F(
+        None, "sphere and Hooke families: the main link's body-joint axis lies on the great "
+        "circle of this azimuth in the task's reference frame", unit="deg",
+        example=[0.0, 45.0, 90.0, 135.0], default_text="0, 45, 90, 135", kind=_VALUES)
+    axis_azimuth_deg: Optional[Values] = F(
+        None, "RUP, URP: the U joint's first axis on the great circle of this azimuth",
+        unit="deg", example=[30.0, 120.0], default_text="30, 120", kind=_VALUES)
+    transition_angle_deg: Optional[Values] = F(
+        None, "an R transition joint carrying a C joint: the C joint's rotation meanwhile",
+        unit="deg", example=[-30.0, 30.0], default_text="the family's grid", kind=_VALUES)
+    fixed_direction: Optional[Vec3s] = F(
+        None, "main RC, CR, HC, CH links: the fixed axis direction (unit vector or a list)",
+        unit="1", example=[0.0, 0.0, 1.0], default_text="4 directions over a hemisphere", kind=_VEC3S)
+    slide_direction: Optional[Vec3s] = F(
+        None, "main links with a P joint: the slide direction (unit vector or a list)",
+        unit="1", example=[1.0, 0.0, 0.0], default_text="4 directions over a hemisphere", kind=_VEC3S)
+    prismatic_slide: Optional[Values] = F(
+        None, "main PC, CP links: the P joint's slide to the other main position", unit="m",
+        example=[0.1, 0.2], default_text="±0.5 × the task's reach", kind=_VALUES)
+    centre: Optional[Vec3s] = F(
+        None, "RUC, URC: the U joint's centre (a point or a list of points)", unit="m",
+        example=[0.0, 0.0, 0.5], default_text="3 points around the task's centre", kind=_VEC3S)
 
 
 class PositionSection(Section):

@@ -354,17 +354,40 @@ def enumerate_dyads(family: str, screws, **choices) -> pd.DataFrame:
                              f"{', '.join(sorted(known))}")
     how = impl[fam][0]
     if how != "direct":
-        return _inverse_family(fam, screws, choices)
+        return _flag_ill_conditioned(_inverse_family(fam, screws, choices))
     if fam == "RRR":
         if choices:
             raise SynthesisError(f"{', '.join(sorted(choices))}: not a free parameter of "
                                  "family RRR (its free parameters: none)")
-        return rrr_dyads(screws)
+        return _flag_ill_conditioned(rrr_dyads(screws))
     mod = _family_module(fam)
     if mod is not None:
-        return _module_solver(fam, mod)(screws, **choices)
+        return _flag_ill_conditioned(_module_solver(fam, mod)(screws, **choices))
     from .decompose import decomposed_dyads
-    return decomposed_dyads(fam, _screws(screws, "screws"), **choices)
+    return _flag_ill_conditioned(decomposed_dyads(fam, _screws(screws, "screws"), **choices))
+
+
+#: a variant the engine drives through the positions with a larger pose error than this
+#: (rad, or relative to the task's reach) is not regular: its reason says so
+REGULAR_RESIDUAL = 1e-9
+
+
+def _flag_ill_conditioned(df: pd.DataFrame) -> pd.DataFrame:
+    """Rows without a reason whose engine residual exceeds :data:`REGULAR_RESIDUAL` (or is
+    missing) get one: the construction lost its accuracy (nearly coincident positions,
+    nearly parallel axes); their residual stays, to show by how much."""
+    if not len(df) or "residual" not in df or "reason" not in df:
+        return df
+    res = df["residual"].to_numpy(float)
+    bad = (df["reason"].fillna("") == "").to_numpy() & ~(res <= REGULAR_RESIDUAL)
+    if bad.any():
+        df = df.copy()
+        df.loc[bad, "reason"] = [
+            f"ill-conditioned: the engine's pose error {r:.1e} exceeds {REGULAR_RESIDUAL:g} "
+            "(nearly coincident positions or nearly parallel axes)" if np.isfinite(r) else
+            "not verified: the engine could not drive this variant through the positions"
+            for r in res[bad]]
+    return df
 
 
 def _inverse_family(fam, screws, choices):

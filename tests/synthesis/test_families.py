@@ -465,3 +465,19 @@ def test_default_grids_move_with_the_task(family):
     for d in la:
         assert np.min(np.minimum(np.linalg.norm(Lb - d, axis=1),
                                  np.linalg.norm(Lb + d, axis=1))) <= 1e-7
+
+
+@pytest.mark.ill_conditioned_ok
+@pytest.mark.parametrize("seed", [0, 3])
+def test_nearly_coincident_positions_are_flagged_not_regular(seed):
+    """Position 5 is position 2 turned 1e-9 further: variants that lose their accuracy are
+    flagged with their residual kept; none above 1e-9 is regular."""
+    rng = np.random.default_rng(seed)
+    base = [Screw(_unit(rng.normal(size=3)), rng.normal(size=3), rng.uniform(0.3, 2),
+                  rng.normal()) for _ in range(3)]
+    near = base + [Screw(base[0].axis, base[0].point, base[0].angle * (1 + 1e-9), base[0].slide)]
+    df = enumerate_dyads("RCC", near)
+    flagged = df.reason.str.startswith("ill-conditioned")
+    assert flagged.any() and (df[flagged].residual > 1e-9).all()
+    assert df[flagged].reason.str.contains("nearly coincident").all()
+    assert (df[df.reason == ""].residual <= 1e-9).all()

@@ -84,6 +84,7 @@ def _row(chain, variant, order, types, lines, residual, joint_values=None, slide
         row[f"j{k}_type"] = t
         row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"] = ln.direction
         row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"] = ln.point
+        row[f"j{k}_pitch"] = {"R": 0.0, "P": np.inf}.get(t, np.nan)
     row["residual"] = residual
     row["reason"] = ""
     row.update(extra)
@@ -97,8 +98,8 @@ def _row(chain, variant, order, types, lines, residual, joint_values=None, slide
 
 def _table(rows, attrs) -> pd.DataFrame:
     df = pd.DataFrame(rows)
-    extra = [c for c in df.columns if c not in DYAD_COLUMNS and c != "reason"]
-    df = df.reindex(columns=list(DYAD_COLUMNS) + ["reason"] + extra)
+    extra = [c for c in df.columns if c not in DYAD_COLUMNS]
+    df = df.reindex(columns=list(DYAD_COLUMNS) + extra)
     df.attrs.update(attrs)
     return df
 

@@ -49,11 +49,13 @@ def analyze_scene(study: Study, mech: Mechanism | None = None, poses=None):
 def _chain_of(row):
     """Joint kinds and Z-along-axis frames of a variant row (``None`` where its joints cannot
     all be driven: a sphere's rotation is not in the table)."""
-    kinds = [row[f"j{k}_type"] for k in (1, 2, 3)]
+    from .cmd_synth import joint_numbers
+    ks = joint_numbers(row)
+    kinds = [row[f"j{k}_type"] for k in ks]
     if any(t not in "RPCHU" for t in kinds):
         return None
     frames = []
-    for k in (1, 2, 3):
+    for k in ks:
         u = np.array([row[f"j{k}_u{c}"] for c in "xyz"], float)
         p = np.array([row[f"j{k}_{c}"] for c in "xyz"], float)
         u = u / np.linalg.norm(u)
@@ -117,8 +119,8 @@ def variant_scenes(ranked, T, family: str, best: int = BEST):
             skipped += 1
             continue
         kinds, frames = chain
-        m = Mechanism(["A", "B", "body"])
-        links = ["ground", "A", "B", "body"]
+        links = ["ground", "A", "B"][:len(kinds)] + ["body"]
+        m = Mechanism(links[1:])
         for k, t in enumerate(kinds):
             pitch = float(row[f"j{k + 1}_pitch"]) if t == "H" else None
             m.add_joint(f"j{k + 1}", t, links[k], links[k + 1], at=frames[k], pitch=pitch)

@@ -14,10 +14,16 @@ from .study import Study
 CRITERIA = ("link_length", "axis_distance")
 
 
+def joint_numbers(row) -> list[int]:
+    """The joints of a table row, 1-based from the ground: (1, 2, 3) for a dyad, (1, 2)
+    for a binary link of :func:`synthesis.complete_dyads`."""
+    return [k for k in (1, 2, 3) if isinstance(row.get(f"j{k}_type"), str)]
+
+
 def _elements(row):
     """The joints as Lines, or centre points (arrays) for spheres."""
     out = []
-    for k in (1, 2, 3):
+    for k in joint_numbers(row):
         p = np.array([row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"]])
         if row[f"j{k}_type"] == "S":
             out.append(p)
@@ -29,13 +35,15 @@ def _elements(row):
 def _distance(a, b):
     if isinstance(a, Line) and isinstance(b, Line):
         return a.distance_to(b)
+    if not isinstance(a, Line) and not isinstance(b, Line):
+        return float(np.linalg.norm(a - b))
     line, pt = (a, b) if isinstance(a, Line) else (b, a)
     return float(np.linalg.norm(pt - line.foot_from(pt)))
 
 
 def criterion_values(df: pd.DataFrame, kind: str, center=None) -> np.ndarray:
-    """``link_length``: the sum of the two links' lengths (common normals, or the distance
-    from an axis to a sphere centre); ``axis_distance``: the largest distance of the
+    """``link_length``: the sum of the links' lengths (common normals, the distance from an
+    axis to a sphere centre, or between two centres); ``axis_distance``: the largest distance of the
     joints (axes or sphere centre) from ``center`` (both in length units)."""
     out = np.full(len(df), np.nan)
     for i, (_, r) in enumerate(df.iterrows()):
@@ -43,7 +51,7 @@ def criterion_values(df: pd.DataFrame, kind: str, center=None) -> np.ndarray:
             continue
         E = _elements(r)
         if kind == "link_length":
-            out[i] = _distance(E[0], E[1]) + _distance(E[1], E[2])
+            out[i] = sum(_distance(a, b) for a, b in zip(E[:-1], E[1:]))
         else:
             out[i] = max(np.linalg.norm(center - e) if not isinstance(e, Line)
                          else _distance(e, center) for e in E)
@@ -193,12 +201,13 @@ def chain_jacobian(row, p: int):
     are not tabulated (a sphere before the last joint)."""
     G = np.eye(4)
     cols = []
-    for k in (1, 2, 3):
+    ks = joint_numbers(row)
+    for k in ks:
         tw = _joint_twists(row, k, G, p)
         if tw is None:
             return None
         cols += tw
-        if k < 3:
+        if k < ks[-1]:
             M = _motion(row, k, p)
             if M is None:
                 return None
@@ -224,12 +233,13 @@ def chain_condition(row, n_positions: int, size: float) -> float:
 
 
 def rank_variants(df: pd.DataFrame, kind: str, center, size: float, n_positions: int,
-                  tol: float = RESIDUAL_TOL, progress=None) -> pd.DataFrame:
+                  tol: float = RESIDUAL_TOL, progress=None, fit_first: bool = False) -> pd.DataFrame:
     """The variants with the design figures and the rank (1 best; NaN: excluded).
 
     Added columns: ``criterion`` (the study's criterion, m), ``size_ratio`` (criterion /
-    task size), ``link1``, ``link2`` (common-normal lengths, m), ``offset`` (distance
-    between the feet of the two common normals on axis 2, m), ``condition`` (worst
+    task size), ``link1``, ``link2`` (common-normal lengths, m; link2 NaN for a binary
+    link), ``offset`` (distance between the feet of the two common normals on axis 2, m),
+    ``condition`` (worst
     Jacobian condition over the positions, :func:`chain_condition`), ``check``
     (``ok`` or why the variant is excluded) and ``rank``.
 
@@ -237,7 +247,9 @@ def rank_variants(df: pd.DataFrame, kind: str, center, size: float, n_positions:
     residual exceeds ``tol`` are excluded; the others are ranked first by whether they
     stay away from singular poses (condition ≤ COND_OK), then by the size ratio, then by
     the condition, both rounded to 4 significant digits so that round-off cannot reorder
-    them, then by variant number.
+    them, then by variant number.  ``fit_first`` (least-squares synthesis: the residual
+    is the fit to measured positions, not a check) ranks by the residual, rounded the
+    same way, before everything else.
     """
     out = df.copy()
     out["criterion"] = criterion_values(df, kind, center)
@@ -251,8 +263,10 @@ def rank_variants(df: pd.DataFrame, kind: str, center, size: float, n_positions:
         if reason.iloc[i]:
             continue
         E = _elements(r)
-        link1[i], link2[i] = _distance(E[0], E[1]), _distance(E[1], E[2])
-        if all(isinstance(e, Line) for e in E):
+        link1[i] = _distance(E[0], E[1])
+        if len(E) == 3:
+            link2[i] = _distance(E[1], E[2])
+        if len(E) == 3 and all(isinstance(e, Line) for e in E):
             a = _feet(E[0], E[1])
             b = _feet(E[2], E[1])
             offset[i] = float(abs(np.dot(b - a, E[1].direction))) if a is not None \
@@ -266,11 +280,12 @@ def rank_variants(df: pd.DataFrame, kind: str, center, size: float, n_positions:
     out["check"] = check
     ok = out.check == "ok"
     keys = pd.DataFrame({
+        "fit": [_sig(v) if fit_first else 0.0 for v in res],
         "near_singular": ~(out.condition.fillna(0) <= COND_OK),
         "size": [_sig(v) for v in out.size_ratio],
         "cond": [_sig(v) for v in out.condition.fillna(0)],
         "variant": out.variant}, index=out.index)[ok]
-    order = keys.sort_values(["near_singular", "size", "cond", "variant"]).index
+    order = keys.sort_values(["fit", "near_singular", "size", "cond", "variant"]).index
     out["rank"] = np.nan
     out.loc[order, "rank"] = np.arange(1, len(order) + 1)
     return out
@@ -324,23 +339,43 @@ def task_choices(study: Study) -> dict:
     return out
 
 
+MODES = ("enumerate", "complete", "least-squares")
+
+
 def synthesise(study: Study):
-    """A synth study's enumeration: ``(family, screws, table, T (P, 4, 4), size)``; an
-    error names the study key at fault (a choice the family does not have, a missing
-    pitch, positions the family cannot take)."""
+    """A synth study's synthesis: ``(family, screws, table, T (P, 4, 4), size)``.
+
+    ``[synthesis] mode``: ``enumerate`` (default: :func:`synthesis.enumerate_dyads` of the
+    family with its choices), ``complete`` (:func:`synthesis.complete_dyads`: every real
+    solution of the binary link ``family`` = RR, CC, SS or TS at its maximal number of
+    positions) or ``least-squares`` (:func:`synthesis.least_squares_dyads`: RR or CC
+    through more positions, best fit).  An error names the study key at fault (a choice
+    the family does not have, a missing pitch, positions the family cannot take)."""
+    from synthesis import complete_dyads, least_squares_dyads
     sec = study.section("synthesis")
     family = sec.get("family", "str")
+    mode = sec.get("mode", "str", "enumerate", choices=MODES)
     screws = task_screws(study)
     choices = task_choices(study)
+    if mode != "enumerate" and choices:
+        key = next(k for k, (n, _) in CHOICE_KEYS.items() if n in choices)
+        raise study.error(f"synthesis.{key}", f"mode {mode!r} has no free parameters (the "
+                          "solutions of a binary link at its maximal number of positions are "
+                          "isolated); remove it or use mode = \"enumerate\"")
     try:
-        df = enumerate_dyads(family, screws, **choices)
+        if mode == "complete":
+            df = complete_dyads(family, screws)
+        elif mode == "least-squares":
+            df = least_squares_dyads(family, screws)
+        else:
+            df = enumerate_dyads(family, screws, **choices)
     except SynthesisError as e:
         msg = str(e)
         key = next((k for k, (n, _) in CHOICE_KEYS.items() if msg.startswith(n + ":")
                     or msg.startswith(n + ",")), None)
         raise study.error(f"synthesis.{key}" if key else "position"
                           if msg.startswith("screws") else "synthesis.family"
-                          if "family" in msg else "position", msg) from None
+                          if "family" in msg or "chain" in msg else "position", msg) from None
     T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
     _, extent, reach = task_scale(list(T), [s.axis for s in screws], [s.point for s in screws])
     size = extent if extent > 0 else (reach if reach > 0 else 1.0)
@@ -367,6 +402,20 @@ def _how(row) -> str:
     return f"{row.order}" if "order" in row else ""
 
 
+def _solution_count(df, mode) -> list[str]:
+    """The complete solvers' account of the solution set (from the table's attrs)."""
+    a = df.attrs
+    if mode == "complete":
+        return [f"{a.get('real_count', len(df))} real solutions of {a.get('complex_count')} "
+                f"over the complex numbers (the generic count is {a.get('expected_count')}; "
+                f"{a.get('method', '')}); {a.get('failed_paths', 0)} candidates did not polish "
+                f"to a solution; {fmt_num(1e3 * a.get('time_s', np.nan), 3)} ms."]
+    if mode == "least-squares":
+        return [f"{a.get('starts')} exact solutions of {a.get('subsets')} position subsets "
+                f"started the fit; {fmt_num(1e3 * a.get('time_s', np.nan), 3)} ms."]
+    return []
+
+
 def run(study: Study, out: Outputs, progress) -> dict:
     crit = study.section("criterion", required=False)
     kind = crit.get("kind", "str", "link_length", choices=CRITERIA) if crit else "link_length"
@@ -374,14 +423,20 @@ def run(study: Study, out: Outputs, progress) -> dict:
     family = study.section("synthesis").get("family", "str")
     progress(f"synthesising {family} through {len(study.sections('position')) + 1} positions")
     family, screws, df, T, size = synthesise(study)
+    mode = study.section("synthesis").get("mode", "str", "enumerate", choices=MODES)
+    fit = mode == "least-squares"
     if len(df) and not (df.reason == "").any():
         raise study.error("position", "no regular dyad through these positions: "
                           f"{df.reason.iloc[0]}")
-    ranked = rank_variants(df, kind, center, size, len(T), progress=progress)
+    tol = np.inf if fit else RESIDUAL_TOL
+    ranked = rank_variants(df, kind, center, size, len(T), tol=tol, progress=progress,
+                           fit_first=fit)
     out.add_csv("variants.csv", ranked)
     best_rows = ranked[ranked["rank"].notna()].sort_values("rank")
     excluded = ranked[ranked["rank"].isna()]
-    rep = Report(f"{family} dyad synthesis")
+    rep = Report(f"{family} " + {"enumerate": "dyad synthesis",
+                                 "complete": "synthesis: every solution",
+                                 "least-squares": "synthesis: least-squares fit"}[mode])
     crit_words = {"link_length": "the sum of the two links' lengths (common normals)",
                   "axis_distance": "the largest distance of a joint from the centre "
                                    f"{fmt_q(center, 'm')}"}[kind]
@@ -399,15 +454,23 @@ def run(study: Study, out: Outputs, progress) -> dict:
             s2 = best_rows.iloc[1]
             runner = (f" The next, variant {int(s2.variant)}, has criterion "
                       f"{fmt_q(s2.criterion, 'm')} and condition {fmt_num(s2.condition, 3)}.")
+        links = (f"links {fmt_q(b.link1, 'm')} and {fmt_q(b.link2, 'm')}, offset "
+                 f"{fmt_q(b.offset, 'm')}" if np.isfinite(b.link2) else
+                 f"link length {fmt_q(b.link1, 'm')}")
+        lead = (f"Best fit: variant {int(b.variant)} ({_how(b)}), largest pose error "
+                f"{fmt_num(b.residual, 3)} over the {len(T)} positions (rad, or length over "
+                "the task's reach)" if fit else f"Best variant: {int(b.variant)} ({_how(b)})")
         rep.findings(
-            f"Best variant: {int(b.variant)} ({_how(b)}): "
-            f"{kind} = {fmt_q(b.criterion, 'm')}, {fmt_num(b.size_ratio, 3)} times the task's "
-            f"size {fmt_q(size, 'm')} (links {fmt_q(b.link1, 'm')} and {fmt_q(b.link2, 'm')}, "
-            f"offset {fmt_q(b.offset, 'm')}); {why}." + runner,
+            f"{lead}: {kind} = {fmt_q(b.criterion, 'm')}, {fmt_num(b.size_ratio, 3)} times "
+            f"the task's size {fmt_q(size, 'm')} ({links}); {why}." + runner,
             f"{len(df)} variants, {len(best_rows)} ranked, {len(excluded)} excluded "
-            f"(degenerate or residual above {RESIDUAL_TOL:g}); the largest residual of the "
-            f"ranked ones is {fmt_num(best_rows.residual.max(), 2)} (a check of the "
-            "engine-verified pose error, not a ranking key).")
+            + ("(degenerate); ranked by their fit first." if fit else
+               f"(degenerate or residual above {RESIDUAL_TOL:g}); the largest residual of the "
+               f"ranked ones is {fmt_num(best_rows.residual.max(), 2)} (a check of the "
+               "engine-verified pose error, not a ranking key)."),
+            *_solution_count(df, mode))
+    elif mode != "enumerate":
+        rep.findings("No real solution through these positions.", *_solution_count(df, mode))
     rep.text(f"Study: {study.path.name}. Ranking: variants with a residual above "
              f"{RESIDUAL_TOL:g} (relative to the task) or degenerate are excluded; the others "
              f"are ranked first by distance from singular poses (worst condition of the "
@@ -435,7 +498,7 @@ def run(study: Study, out: Outputs, progress) -> dict:
         best = best_rows.iloc[0]
         rep.table(pd.DataFrame([{"joint": k, "type": best[f"j{k}_type"],
                                  **{c: best[f"j{k}_{c}"] for c in ("ux", "uy", "uz", "x", "y", "z")}}
-                                for k in (1, 2, 3)]), "{:.6g}",
+                                for k in joint_numbers(best)]), "{:.6g}",
                   units={"ux": DIMENSIONLESS, "uy": DIMENSIONLESS, "uz": DIMENSIONLESS,
                          "x": "m", "y": "m", "z": "m"})
     from .cmd_draw import variant_scenes

@@ -101,7 +101,14 @@ class SynthesisSection(Section):
     family: Name = F(doc="dyad family: three joint letters from the ground to the body "
                          "(R, P, C, H, S, U) of seed 001's Table 3 or its reverse; "
                          "`synthesis.families()` lists the 51 families and how many "
-                         "positions each takes", example="RRR")
+                         "positions each takes.  Modes `complete` and `least-squares`: the "
+                         "binary link (RR, CC, SS, TS; least squares: RR, CC)", example="RRR")
+    mode: Literal["enumerate", "complete", "least-squares"] = F(
+        "enumerate", "`enumerate`: every variant of the family's construction (its free "
+        "parameters below); `complete`: every real solution of a binary link at its maximal "
+        "number of positions (RR 3, CC 5, SS and TS 7) with the count over the complex "
+        "numbers; `least-squares`: RR or CC through more positions than that (measured "
+        "poses), best fit first", example="complete")
     pitch: Optional[Number] = F(None, "the helical joints' pitch: slide per radian of "
                                 "rotation (required by the families with an H joint)",
                                 unit="m/rad", example=0.05, default_text="(no helical joint)")

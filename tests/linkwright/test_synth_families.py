@@ -90,3 +90,49 @@ def test_synth_study_errors_name_the_key(tmp_path, capsys, family, extra, key):
     code = main(["synth", str(_study(tmp_path, family, extra)), "-o", str(tmp_path / "o")])
     err = capsys.readouterr().err
     assert code != 0 and f"'{key}'" in err, err
+
+
+def _two_positions(text):
+    """The seed study cut to its first two screws (three positions: RR's maximum)."""
+    i = text.index("[[position]]")
+    j = text.index("[[position]]", text.index("[[position]]", i + 1) + 1)
+    return text[:j] + text[text.index("[criterion]"):]
+
+
+def test_complete_mode_gives_every_rr_solution(tmp_path, capsys):
+    import pandas as pd
+    from synthesis import Screw, complete_dyads
+    p = tmp_path / "rr.toml"
+    p.write_text(_two_positions(SEED).replace('family = "RRR"', 'family = "RR"\nmode = "complete"'))
+    code = main(["synth", str(p), "-o", str(tmp_path / "out"), "--json"])
+    out = capsys.readouterr().out
+    assert code == 0, out
+    df = pd.read_csv(tmp_path / "out" / "variants.csv")
+    ref = complete_dyads("RR", [Screw.from_degrees([0, 0, 1], [0, 0, 0], 30, 0.7),
+                                Screw.from_degrees([0.34202, 0, 0.939693], [0, 1.1, 0], 65, 0.5)])
+    assert len(df) == len(ref) == 2 and (df.residual <= 1e-9).all()
+    got = np.sort(df[["j1_ux", "j1_uy", "j1_uz"]].to_numpy(), axis=0)
+    assert np.allclose(got, np.sort(ref[["j1_ux", "j1_uy", "j1_uz"]].to_numpy(float), axis=0),
+                       atol=1e-12)
+    assert df.link2.isna().all() and df.condition.notna().all()
+    assert "2 real solutions of 2 over the complex numbers" in \
+        (tmp_path / "out" / "report.md").read_text()
+
+
+def test_least_squares_mode_ranks_by_fit(tmp_path, capsys):
+    import pandas as pd
+    p = tmp_path / "rrls.toml"
+    p.write_text(SEED.replace('family = "RRR"', 'family = "RR"\nmode = "least-squares"'))
+    assert main(["synth", str(p), "-o", str(tmp_path / "out")]) == 0
+    df = pd.read_csv(tmp_path / "out" / "variants.csv").sort_values("rank")
+    assert len(df) >= 1 and df["rank"].notna().all()         # none excluded for its fit
+    assert np.all(np.diff(df.residual.to_numpy()) >= -1e-3 * df.residual.abs().max())
+    assert "Best fit" in (tmp_path / "out" / "report.md").read_text()
+
+
+def test_complete_mode_refuses_free_parameters(tmp_path, capsys):
+    p = tmp_path / "bad.toml"
+    p.write_text(_two_positions(SEED).replace(
+        'family = "RRR"', 'family = "RR"\nmode = "complete"\nazimuth_deg = 10.0'))
+    assert main(["synth", str(p), "-o", str(tmp_path / "o")]) != 0
+    assert "'synthesis.azimuth_deg'" in capsys.readouterr().err

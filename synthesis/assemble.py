@@ -8,9 +8,11 @@ by the engine's continuation (which stays on the branch it starts on).
 """
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
 from closure.frames import transform
 from closure.mechanism import Mechanism
@@ -19,10 +21,11 @@ from .binary import BinaryLink
 from .errors import SynthesisError
 from .rr import RRLink
 from .rs import RSLink
+from .screw import Line
 from .validate import integer, number, screws as _screws, task_scale
 from .verify import _frame_of, pose_errors
 
-__all__ = ["Assembly", "assemble"]
+__all__ = ["Assembly", "assemble", "assemble_table", "link_from_row"]
 
 
 @dataclass
@@ -227,3 +230,103 @@ def assemble(links, screws, *, drive: str | None = None, steps: int = 180,
                     order_defect=order, branch_defect=bool(not reached.all()),
                     dead_point=bool(n_ok < len(ok) or near),
                     transmission=float(np.min(1.0 / cond)) if cond.size else 0.0, sweep=df)
+
+
+def link_from_row(row) -> BinaryLink:
+    """The binary link of a two-joint table row (:func:`synthesis.complete_dyads`,
+    :func:`synthesis.least_squares_dyads`): its joint kinds, axes (or sphere centres) in
+    position 1 and joint values ``q{k}_pos{p}`` (angle rad, or a P joint's slide) and
+    ``d{k}_pos{p}`` (slide, length) at every position.
+
+    Raises
+    ------
+    SynthesisError
+        A row that is not a regular two-joint link (naming what is missing).
+    """
+    types = "".join(str(row.get(f"j{k}_type", "")) for k in (1, 2))
+    if len(types) != 2 or any(t not in "RHPCS" for t in types) or \
+            isinstance(row.get("j3_type"), str):
+        raise SynthesisError(f"row: expected a two-joint link (kinds R, H, P, C, S), got "
+                             f"types {types!r}")
+    if row.get("reason", ""):
+        raise SynthesisError(f"row: variant {row.get('variant')} is degenerate: {row['reason']}")
+    lines, vals = [], []
+    n = 0
+    while f"q1_pos{n + 1}" in row:
+        n += 1
+    for k, t in enumerate(types, start=1):
+        u = np.array([row[f"j{k}_u{c}"] for c in "xyz"], float)
+        pt = np.array([row[f"j{k}_{c}"] for c in "xyz"], float)
+        if t == "S":
+            u = np.array([0.0, 0.0, 1.0])
+        lines.append(Line(u, pt))
+        q = np.array([row.get(f"q{k}_pos{p}", np.nan) for p in range(1, n + 1)], float)
+        d = np.array([row.get(f"d{k}_pos{p}", 0.0) for p in range(1, n + 1)], float)
+        pitch = float(row.get(f"j{k}_pitch", np.nan))
+        ang = np.zeros(n) if t == "P" else q
+        sl = q if t == "P" else pitch * q if t == "H" else np.nan_to_num(d) if t == "C" \
+            else np.zeros(n)
+        vals.append((pitch, ang, sl))
+    (pf, af, sf), (pm, am, sm) = vals
+    return BinaryLink(types, lines[0], lines[1], pf, pm, af, sf, am, sm,
+                      float(row.get("residual", np.nan)), {})
+
+
+def assemble_table(table: pd.DataFrame, screws, *, links: int = 2, drive: str | None = None,
+                   steps: int = 180, tol: float = 1e-9) -> pd.DataFrame:
+    """Every mechanism of ``links`` regular binary links of a solution table, assembled
+    (:func:`assemble`) and swept through the task: the pairing's defects and transmission,
+    ranked — mechanisms without defects first, then by transmission (best first).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        Rows of two-joint links (:func:`synthesis.complete_dyads`,
+        :func:`synthesis.least_squares_dyads`) through the positions of ``screws``.
+    screws : sequence of Screw
+        The task (S₁₂ … S₁N).
+    links : int
+        Links per mechanism (2: RR + RR is a Bennett 4R).
+    drive, steps, tol
+        As :func:`assemble`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per combination: ``variants`` (the table's variant numbers, joined by
+        "+"), ``mobility``, ``order_defect``, ``branch_defect``, ``dead_point``,
+        ``defects`` (any of the three), ``transmission``, ``pose_error`` (largest over
+        the positions; inf where not reached), ``reason`` (why it could not be assembled:
+        mobility not 1, no drivable joint), ``rank`` (1 best; NaN where not assembled).
+    """
+    from .validate import integer
+    links = integer(links, "links", low=2)
+    if not isinstance(table, pd.DataFrame):
+        raise SynthesisError(f"table: expected a pandas DataFrame, got {type(table).__name__}")
+    ok = table[table.get("reason", pd.Series("", index=table.index)).fillna("") == ""]
+    rows = []
+    for combo in itertools.combinations(range(len(ok)), links):
+        rs = [ok.iloc[i] for i in combo]
+        rec = {"variants": "+".join(str(int(r["variant"])) for r in rs), "mobility": np.nan,
+               "order_defect": np.nan, "branch_defect": np.nan, "dead_point": np.nan,
+               "defects": np.nan, "transmission": np.nan, "pose_error": np.nan, "reason": ""}
+        try:
+            a = assemble([link_from_row(r) for r in rs], screws, drive=drive, steps=steps,
+                         tol=tol)
+        except SynthesisError as e:
+            rec["reason"] = str(e)
+        else:
+            rec.update(mobility=a.mobility, order_defect=a.order_defect,
+                       branch_defect=a.branch_defect, dead_point=a.dead_point,
+                       defects=a.defects, transmission=a.transmission,
+                       pose_error=float(np.max(a.pose_error)))
+        rows.append(rec)
+    out = pd.DataFrame(rows, columns=["variants", "mobility", "order_defect", "branch_defect",
+                                      "dead_point", "defects", "transmission", "pose_error",
+                                      "reason"])
+    good = out[out.reason == ""]
+    order = good.assign(d=good.defects.astype(bool)).sort_values(
+        ["d", "transmission"], ascending=[True, False]).index
+    out["rank"] = np.nan
+    out.loc[order, "rank"] = np.arange(1, len(order) + 1)
+    return out

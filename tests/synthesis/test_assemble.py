@@ -112,3 +112,41 @@ def test_constructed_task_reached_out_of_order():
     a = assemble(links, screws)
     assert a.reached.all() and np.all(a.pose_error < 1e-10)
     assert a.order_defect and not a.branch_defect
+
+
+# ------------------------------------------------------------------ tables of solutions
+def test_assemble_table_of_the_complete_rr_solutions_is_the_bennett_linkage():
+    from synthesis import complete_dyads
+    from synthesis.assemble import assemble_table, link_from_row
+    df = complete_dyads("RR", SEED)
+    t = assemble_table(df, SEED)
+    assert len(t) == 1 and t.reason.iloc[0] == "" and t["rank"].iloc[0] == 1
+    ref = assemble(rr_links(*SEED), SEED)
+    assert t.mobility.iloc[0] == 1 and not t.defects.iloc[0]
+    assert abs(t.transmission.iloc[0] - ref.transmission) < 1e-9
+    assert t.pose_error.iloc[0] < 1e-12
+    # the row's link reproduces the solver's link (axes and joint values)
+    for i in range(2):
+        lk = link_from_row(df.iloc[i])
+        same = [o for o in rr_links(*SEED)
+                if np.linalg.norm(np.cross(o.fixed_axis.direction, lk.fixed_axis.direction)) < 1e-12]
+        assert len(same) == 1
+        assert np.allclose(np.cos(same[0].fixed_angles), np.cos(lk.fixed_angles), atol=1e-12)
+
+
+def test_assemble_table_records_why_a_combination_is_not_a_mechanism():
+    from synthesis import complete_dyads
+    from synthesis.assemble import assemble_table
+    rng = np.random.default_rng(4)
+    S = [Screw(v / np.linalg.norm(v), rng.normal(size=3), rng.uniform(0.4, 2.0), rng.normal())
+         for v in rng.normal(size=(4, 3))]
+    df = complete_dyads("CC", S)
+    if len(df) < 2:
+        pytest.skip("fewer than two real CC links on this task")
+    t = assemble_table(df, S)
+    assert len(t) == len(df) * (len(df) - 1) // 2
+    assert t.reason.str.contains("C joint").all() and t["rank"].isna().all()   # no drive
+    with pytest.raises(SynthesisError, match="table"):
+        assemble_table(df.to_dict(), S)
+    with pytest.raises(SynthesisError, match="links"):
+        assemble_table(df, S, links=1)

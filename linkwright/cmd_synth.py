@@ -402,6 +402,41 @@ def _how(row) -> str:
     return f"{row.order}" if "order" in row else ""
 
 
+def _assemblies(study, mode, ranked, screws, rep, out, progress):
+    """The ``[assemble]`` table: every combination of regular links assembled and swept
+    (:func:`synthesis.assemble_table`), written and reported; None without the section."""
+    from synthesis import assemble_table
+    sec = study.section("assemble", required=False)
+    if sec is None:
+        return None
+    if mode == "enumerate":
+        raise study.error("assemble", "assembles binary links: use mode = \"complete\" or "
+                          "\"least-squares\" (a dyad of three joints closes with another into "
+                          "a loop without mobility)")
+    n = sec.get("links", "int", 2, low=2, high=6)
+    drive = sec.get("drive", "str", "g1")
+    progress(f"assembling the solutions {n} by {n}")
+    try:
+        t = assemble_table(ranked, screws, links=n, drive=drive)
+    except SynthesisError as e:
+        raise study.error("assemble.drive" if "drive" in str(e) else "assemble",
+                          str(e)) from None
+    out.add_csv("assemblies.csv", t)
+    rep.heading(f"Mechanisms from {n} links of the table")
+    good = t[t["rank"].notna()].sort_values("rank")
+    clean = good[~good.defects.astype(bool)]
+    rep.text(f"{len(t)} combinations, {len(good)} assembled into mechanisms of mobility 1 "
+             f"and swept from position 1 by the drive {drive}; {len(clean)} without order, "
+             "branch or dead-point defects. Transmission: the smallest inverse condition of "
+             "the loop's Jacobian along the sweep (0 at a singularity, 1 ideal).")
+    cols = ["rank", "variants", "mobility", "order_defect", "branch_defect", "dead_point",
+            "transmission", "pose_error", "reason"]
+    rep.table(t.sort_values("rank")[cols], "{:.4g}",
+              units={"transmission": DIMENSIONLESS, "pose_error": DIMENSIONLESS,
+                     "mobility": DIMENSIONLESS})
+    return t
+
+
 def _solution_count(df, mode) -> list[str]:
     """The complete solvers' account of the solution set (from the table's attrs)."""
     a = df.attrs
@@ -501,6 +536,7 @@ def run(study: Study, out: Outputs, progress) -> dict:
                                 for k in joint_numbers(best)]), "{:.6g}",
                   units={"ux": DIMENSIONLESS, "uy": DIMENSIONLESS, "uz": DIMENSIONLESS,
                          "x": "m", "y": "m", "z": "m"})
+    assemblies = _assemblies(study, mode, ranked, screws, rep, out, progress)
     from .cmd_draw import variant_scenes
     scenes, not_drawn = variant_scenes(ranked, np.stack(T), family, best=1)
     for v, scn, _ in scenes:
@@ -521,4 +557,8 @@ def run(study: Study, out: Outputs, progress) -> dict:
             "best_criterion": quantity(float(best.criterion) if best is not None else None, "m"),
             "best_condition": quantity(float(best.condition) if best is not None else None,
                                        DIMENSIONLESS),
-            "task_size": quantity(size, "m")}
+            "task_size": quantity(size, "m"),
+            **({} if assemblies is None else {
+                "assemblies": int(len(assemblies)),
+                "assemblies_without_defects": int(
+                    (assemblies["rank"].notna() & ~assemblies.defects.astype(bool)).sum())})}

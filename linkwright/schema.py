@@ -150,6 +150,18 @@ class PositionSection(Section):
     slide: Number = F(doc="translation along the axis", unit="m", example=0.7)
 
 
+class AssembleSection(Section):
+    """Mechanisms from the solutions: every combination of `links` regular links of the
+    table (modes `complete`, `least-squares`) closed into one mechanism sharing ground and
+    body, swept by the engine from position 1 and checked for order, branch and
+    dead-point defects (`assemblies.csv`, ranked: no defects first, then transmission)."""
+
+    links: Annotated[int, Field(ge=2, le=6)] = F(2, "links per mechanism (2 RR links: a "
+                                                 "Bennett 4R)", example=2)
+    drive: Name = F("g1", "the driven joint: `g<i>` the ground joint of link i, `m<i>` its "
+                    "moving joint (an R, H or P joint)", example="g1")
+
+
 class CriterionSection(Section):
     """How the variants are ranked in the report."""
 
@@ -170,6 +182,9 @@ class SynthStudy(Section):
         doc="the displacements S₁₂ … S₁ₙ from the first position")
     criterion: Optional[CriterionSection] = F(None, "ranking of the variants",
                                               default_text="link_length")
+    assemble: Optional[AssembleSection] = F(None, "mechanisms from combinations of the "
+                                            "solutions (modes complete, least-squares)",
+                                            default_text="(none)")
 
 
 # --------------------------------------------------------------------------- stiffness

@@ -136,3 +136,19 @@ def test_complete_mode_refuses_free_parameters(tmp_path, capsys):
         'family = "RRR"', 'family = "RR"\nmode = "complete"\nazimuth_deg = 10.0'))
     assert main(["synth", str(p), "-o", str(tmp_path / "o")]) != 0
     assert "'synthesis.azimuth_deg'" in capsys.readouterr().err
+
+
+def test_assemble_section_closes_the_rr_solutions_into_a_bennett_linkage(tmp_path, capsys):
+    import pandas as pd
+    p = tmp_path / "rr.toml"
+    p.write_text(_two_positions(SEED).replace('family = "RRR"', 'family = "RR"\nmode = "complete"')
+                 + "\n[assemble]\nlinks = 2\n")
+    assert main(["synth", str(p), "-o", str(tmp_path / "out"), "--json"]) == 0
+    summ = json.loads(capsys.readouterr().out)
+    assert summ["assemblies"] == 1 and summ["assemblies_without_defects"] == 1
+    t = pd.read_csv(tmp_path / "out" / "assemblies.csv")
+    assert t.mobility.iloc[0] == 1 and t.pose_error.iloc[0] < 1e-12
+    q = tmp_path / "bad.toml"
+    q.write_text(SEED + "\n[assemble]\nlinks = 2\n")
+    assert main(["synth", str(q), "-o", str(tmp_path / "o2")]) != 0
+    assert "'assemble'" in capsys.readouterr().err

@@ -437,6 +437,55 @@ def _assemblies(study, mode, ranked, screws, rep, out, progress):
     return t
 
 
+def _tolerance(study, best_rows, ranked, T, screws, rep, out, progress):
+    """The ``[tolerance]`` study of one variant (:func:`synthesis.tolerance.chain_tolerance`),
+    written and reported; None without the section."""
+    from synthesis.tolerance import chain_tolerance
+    sec = study.section("tolerance", required=False)
+    if sec is None:
+        return None
+    v = sec.get("variant", "int", None)
+    if v is None:
+        if not len(best_rows):
+            raise study.error("tolerance", "no ranked variant to study")
+        row = best_rows.iloc[0]
+    else:
+        sel = ranked[ranked.variant == v]
+        if not len(sel):
+            raise study.error("tolerance.variant", f"no variant {v} (variants 1–{len(ranked)})")
+        row = sel.iloc[0]
+    centre, _, reach = task_scale(list(T), [s.axis for s in screws], [s.point for s in screws])
+    pt = sec.get("point", "vec3", None)
+    n = sec.get("samples", "int", 10000, low=10)
+    progress(f"tolerance study of variant {int(row.variant)}: {n} samples")
+    try:
+        res = chain_tolerance(row, direction_sigma=np.radians(sec.get("direction_sigma_deg",
+                                                                      low=0.0)),
+                              position_sigma=sec.get("position_sigma", low=0.0), samples=n,
+                              seed=sec.get("seed", "int", 0, low=0),
+                              point=centre if pt is None else pt, length=reach)
+    except SynthesisError as e:
+        raise study.error("tolerance", str(e)) from None
+    t = res.summary.assign(variant=int(row.variant))
+    out.add_csv("tolerance.csv", t)
+    rep.heading(f"Tolerances of variant {int(row.variant)}")
+    worst = t.iloc[t.pos_mean.to_numpy().argmax()]
+    rep.text(f"{n} made chains (every axis tilted with σ = "
+             f"{fmt_num(sec.get('direction_sigma_deg'), 3)}° about two perpendiculars and "
+             f"shifted with σ = {fmt_q(sec.get('position_sigma'), 'm')} across), zeroed at "
+             "position 1 and driven by the engine to the design's joint values. The body "
+             f"point's displacement is largest at position {int(worst.position)}: mean "
+             f"{fmt_q(worst.pos_mean, 'm')}, standard deviation {fmt_q(worst.pos_std, 'm')} "
+             f"(first order: {fmt_q(worst.pos_mean_linear, 'm')}, "
+             f"{fmt_q(worst.pos_std_linear, 'm')}). First order: the engine's sensitivities "
+             "to the axis errors (central differences) applied to the same samples; "
+             "`*_sd_predicted` is the RMS error from J Σ Jᵀ.")
+    rep.table(t.drop(columns="variant"), "{:.4g}",
+              units={c: ("rad" if c.startswith("rot") else "m") for c in t.columns
+                     if c.startswith(("rot", "pos_"))})
+    return res
+
+
 def _solution_count(df, mode) -> list[str]:
     """The complete solvers' account of the solution set (from the table's attrs)."""
     a = df.attrs
@@ -537,6 +586,7 @@ def run(study: Study, out: Outputs, progress) -> dict:
                   units={"ux": DIMENSIONLESS, "uy": DIMENSIONLESS, "uz": DIMENSIONLESS,
                          "x": "m", "y": "m", "z": "m"})
     assemblies = _assemblies(study, mode, ranked, screws, rep, out, progress)
+    tolerance = _tolerance(study, best_rows, ranked, T, screws, rep, out, progress)
     from .cmd_draw import variant_scenes
     scenes, not_drawn = variant_scenes(ranked, np.stack(T), family, best=1)
     for v, scn, _ in scenes:
@@ -558,6 +608,9 @@ def run(study: Study, out: Outputs, progress) -> dict:
             "best_condition": quantity(float(best.condition) if best is not None else None,
                                        DIMENSIONLESS),
             "task_size": quantity(size, "m"),
+            **({} if tolerance is None else {
+                "tolerance_worst_displacement_mean": quantity(
+                    float(tolerance.summary.pos_mean.max()), "m")}),
             **({} if assemblies is None else {
                 "assemblies": int(len(assemblies)),
                 "assemblies_without_defects": int(

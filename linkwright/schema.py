@@ -162,6 +162,27 @@ class AssembleSection(Section):
                     "moving joint (an R, H or P joint)", example="g1")
 
 
+class ToleranceSection(Section):
+    """Manufacturing tolerances of one variant: every joint axis tilted (two angles) and
+    shifted (two lengths, perpendicular to it) at random, the made chain driven by the
+    engine to the design's joint values at every position, and the body's error
+    distribution reported beside its first-order prediction (`tolerance.csv`)."""
+
+    direction_sigma_deg: Annotated[Number, Field(ge=0)] = F(
+        doc="standard deviation of each tilt of every joint axis", unit="deg", example=0.1)
+    position_sigma: Annotated[Number, Field(ge=0)] = F(
+        doc="standard deviation of each perpendicular shift of every joint axis", unit="m",
+        example=1e-4)
+    samples: Annotated[int, Field(ge=10, le=1_000_000)] = F(10000, "Monte Carlo samples",
+                                                             example=10000)
+    seed: Annotated[int, Field(ge=0)] = F(0, "seed of the samples", example=1)
+    variant: Optional[Annotated[int, Field(ge=1)]] = F(
+        None, "the variant studied", example=1, default_text="the best-ranked variant")
+    point: Optional[Vec3] = F(None, "the body point whose displacement is measured (first "
+                              "position)", unit="m", example=[0.0, 0.0, 0.0],
+                              default_text="the task's centre")
+
+
 class CriterionSection(Section):
     """How the variants are ranked in the report."""
 
@@ -182,6 +203,8 @@ class SynthStudy(Section):
         doc="the displacements S₁₂ … S₁ₙ from the first position")
     criterion: Optional[CriterionSection] = F(None, "ranking of the variants",
                                               default_text="link_length")
+    tolerance: Optional[ToleranceSection] = F(None, "manufacturing tolerances of one variant",
+                                              default_text="(none)")
     assemble: Optional[AssembleSection] = F(None, "mechanisms from combinations of the "
                                             "solutions (modes complete, least-squares)",
                                             default_text="(none)")

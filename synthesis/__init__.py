@@ -43,10 +43,13 @@ invert_chain, inverse_screws   kinematic inversion of a synthesised chain
 assemble, Assembly  two or more links sharing ground and body closed into an engine
                     mechanism, swept from position 1: order, branch and dead-point
                     defects, transmission quality (synthesis.assemble)
+chain_tolerance     Monte Carlo manufacturing tolerances of a chain on the engine against
+                    the first-order prediction (synthesis.tolerance)
 assemble_table, link_from_row   every combination of a solution table's links assembled,
                     ranked: no defects first, then by transmission
 """
 from .assemble import Assembly, assemble, assemble_table, link_from_row
+from .tolerance import ToleranceResult, chain_tolerance
 from .binary import BinaryLink
 from .cylindric import cc_direction_residual, cc_directions, cc_links, cr_links, rc_links
 from .complete import complete_dyads, least_squares_dyads
@@ -75,7 +78,8 @@ __all__ = ["Screw", "Line", "relative_screw", "RRLink", "rr_links", "rotation_ax
            "sr_links", "ps_links", "sp_links", "hs_links", "sh_links", "ur_links", "up_links",
            "uh_links", "uc_links", "u_directions", "ph_links", "hp_links", "task_frame",
            "azimuth_of", "complete_dyads", "least_squares_dyads", "implemented_families",
-           "assemble", "Assembly", "assemble_table", "link_from_row"]
+           "assemble", "Assembly", "assemble_table", "link_from_row",
+           "chain_tolerance", "ToleranceResult"]
 
 #: importable names that are not in __all__ (the engine's parts; pyflakes sees them used)
 _NOT_IN_ALL = (transition_joint, two_position_link, verify_chains,

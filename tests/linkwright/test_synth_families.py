@@ -152,3 +152,21 @@ def test_assemble_section_closes_the_rr_solutions_into_a_bennett_linkage(tmp_pat
     q.write_text(SEED + "\n[assemble]\nlinks = 2\n")
     assert main(["synth", str(q), "-o", str(tmp_path / "o2")]) != 0
     assert "'assemble'" in capsys.readouterr().err
+
+
+def test_tolerance_section_reports_sampled_and_first_order_errors(tmp_path, capsys):
+    import pandas as pd
+    p = tmp_path / "tol.toml"
+    p.write_text(SEED + "\n[tolerance]\ndirection_sigma_deg = 0.1\nposition_sigma = 1e-4\n"
+                 "samples = 200\nseed = 2\nvariant = 3\n")
+    assert main(["synth", str(p), "-o", str(tmp_path / "out"), "--json"]) == 0
+    summ = json.loads(capsys.readouterr().out)
+    t = pd.read_csv(tmp_path / "out" / "tolerance.csv")
+    assert list(t.position) == [1, 2, 3, 4] and (t.variant == 3).all()
+    assert summ["tolerance_worst_displacement_mean"]["value"] == pytest.approx(t.pos_mean.max())
+    assert "Tolerances of variant 3" in (tmp_path / "out" / "report.md").read_text()
+    q = tmp_path / "bad.toml"
+    q.write_text(SEED + "\n[tolerance]\ndirection_sigma_deg = 0.1\nposition_sigma = 1e-4\n"
+                 "variant = 999\n")
+    assert main(["synth", str(q), "-o", str(tmp_path / "o2")]) != 0
+    assert "'tolerance.variant'" in capsys.readouterr().err

@@ -47,11 +47,17 @@ def analyze_scene(study: Study, mech: Mechanism | None = None, poses=None):
 
 
 def _chain_of(row):
-    """Joint kinds and Z-along-axis frames of a variant row (``None`` where its joints cannot
-    all be driven: a sphere's rotation is not in the table)."""
+    """Joint kinds, Z-along-axis frames and the sphere centre of a variant row: a sphere at
+    the body end is left out of the driven chain (its centre returned, else None); ``None``
+    where the joints cannot be driven (a sphere before the last joint: its rotation is not
+    in the table)."""
     from .cmd_synth import joint_numbers
     ks = joint_numbers(row)
     kinds = [row[f"j{k}_type"] for k in ks]
+    centre = None
+    if kinds and kinds[-1] == "S":
+        centre = np.array([row[f"j{ks[-1]}_{c}"] for c in "xyz"], float)
+        ks, kinds = ks[:-1], kinds[:-1]
     if any(t not in "RPCHU" for t in kinds):
         return None
     frames = []
@@ -66,7 +72,7 @@ def _chain_of(row):
         x = a - (a @ u) * u
         x /= np.linalg.norm(x)
         frames.append(transform(np.stack([x, np.cross(u, x), u], -1), p))
-    return kinds, frames
+    return kinds, frames, centre
 
 
 def _values(row, kinds, n):
@@ -118,8 +124,9 @@ def variant_scenes(ranked, T, family: str, best: int = BEST):
         if chain is None:
             skipped += 1
             continue
-        kinds, frames = chain
-        links = ["ground", "A", "B"][:len(kinds)] + ["body"]
+        kinds, frames, centre = chain
+        links = ["ground", "A", "B"][:len(kinds)] + ["body"] if centre is None else \
+            ["ground", "A", "B"][:len(kinds) + 1]          # ends at the sphere's link
         m = Mechanism(links[1:])
         for k, t in enumerate(kinds):
             pitch = float(row[f"j{k + 1}_pitch"]) if t == "H" else None
@@ -129,9 +136,11 @@ def variant_scenes(ranked, T, family: str, best: int = BEST):
                 m.add_input(f"j{k + 1}", 1)
         pose = m.solve(_values(row, kinds, len(T)), continuation=False)
         v = int(row.variant)
-        scn = scene(m, pose, points={"body origin": ("body", np.zeros(3))},
-                    frames={"body": pose.link_frame("body")},
-                    fixed_frames={"given": T},
+        if centre is None:
+            pts, body = {"body origin": ("body", np.zeros(3))}, pose.link_frame("body")
+        else:       # the sphere frees the body's rotation: it is at the task's poses
+            pts, body = {"sphere centre": (links[-1], centre)}, T
+        scn = scene(m, pose, points=pts, frames={"body": body}, fixed_frames={"given": T},
                     labels=[f"position {p + 1}" for p in range(len(T))],
                     title=f"{family} variant {v} (rank {int(row['rank'])}) at the "
                           f"{len(T)} task positions")
@@ -154,7 +163,8 @@ def run(study: Study, out: Outputs, progress) -> dict:
         scenes, skipped = synth_scenes(study)
         if not scenes:
             raise study.error("synthesis.family", "no ranked variant can be drawn yet (the "
-                              "drawings drive R, P, C, H and U joints; a sphere's rotation is not in the table)")
+                              "drawings drive R, P, C, H and U joints, and a sphere at the body end; a sphere "
+                              "before the last joint has its rotation missing from the table)")
         for v, scn, _ in scenes:
             out.add(f"variant{v}.png", figure_png(draw_scene(scn), dpi=110))
             out.add(f"variant{v}.html", html_animation(scn, limit=FRAMES))

@@ -591,11 +591,17 @@ def run(study: Study, out: Outputs, progress) -> dict:
     scenes, not_drawn = variant_scenes(ranked, np.stack(T), family, best=1)
     for v, scn, _ in scenes:
         rep.heading("Drawing of the best drawable variant")
+        sphere = "sphere centre" in scn.paths
         rep.drawing(f"variant{v}", scn,
                     f"Variant {v} driven by the engine to its joint values at the {len(T)} task "
-                    "positions: the body's reached frames (solid triads) on the given ones "
-                    "(dotted), the body origin's positions as points; earlier positions fainter."
-                    + (f" {not_drawn} better-ranked variant(s) with a spherical joint are not drawn (its rotation is not in the table)."
+                    "positions: " + (
+                        "the sphere centre's reached positions as points, the body (free to "
+                        "turn about the sphere) at the given poses (triads)" if sphere else
+                        "the body's reached frames (solid triads) on the given ones (dotted), "
+                        "the body origin's positions as points")
+                    + "; earlier positions fainter."
+                    + (f" {not_drawn} better-ranked variant(s) with a spherical joint before "
+                       "the last joint are not drawn (its rotation is not in the table)."
                        if not_drawn else ""))
     rep.add_to(out)
     best = best_rows.iloc[0] if len(best_rows) else None

@@ -24,7 +24,7 @@ def _study(tmp_path, family, extra=""):
 def _engine_twists(row, p, eps=1e-6):
     """Spatial twists (ω, v at the origin) of the body per joint coordinate, by central
     differences of the engine's body pose at position p (1-based)."""
-    kinds, frames = _chain_of(row)
+    kinds, frames, _ = _chain_of(row)
     m = Mechanism(["A", "B", "body"])
     links = ["ground", "A", "B", "body"]
     for k, t in enumerate(kinds):
@@ -170,3 +170,22 @@ def test_tolerance_section_reports_sampled_and_first_order_errors(tmp_path, caps
                  "variant = 999\n")
     assert main(["synth", str(q), "-o", str(tmp_path / "o2")]) != 0
     assert "'tolerance.variant'" in capsys.readouterr().err
+
+
+def test_sphere_ended_variants_are_drawn_with_their_centre_on_the_task():
+    from linkwright.cmd_draw import variant_scenes
+    from linkwright.cmd_synth import rank_variants
+    from synthesis import Screw, enumerate_dyads
+    S = [Screw.from_degrees([0, 0, 1], [0, 0, 0], 30, 0.7),
+         Screw.from_degrees([0.34202, 0, 0.939693], [0, 1.1, 0], 65, 0.5),
+         Screw.from_degrees([0.66, 0.043589, 0.75], [0.25, 1.2, -0.289742], 75, 0.3),
+         Screw.from_degrees([0, 1, 0], [0.5, 0, 0.2], 40, -0.2)]
+    T = np.stack([np.eye(4)] + [s.matrix() for s in S])
+    ranked = rank_variants(enumerate_dyads("PRS", S), "link_length", np.zeros(3), 1.0, len(T))
+    scenes, skipped = variant_scenes(ranked, T, "PRS", best=2)
+    assert len(scenes) == 2 and skipped == 0
+    for v, scn, _ in scenes:
+        row = ranked[ranked.variant == v].iloc[0]
+        c = np.array([row.j3_x, row.j3_y, row.j3_z])
+        want = np.einsum("pij,j->pi", T[:, :3, :3], c) + T[:, :3, 3]
+        assert np.abs(scn.paths["sphere centre"] - want).max() < 1e-9

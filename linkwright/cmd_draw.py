@@ -170,7 +170,28 @@ def run(study: Study, out: Outputs, progress) -> dict:
             out.add(f"variant{v}.html", html_animation(scn, limit=FRAMES))
         return {"command": "draw", "study": "synth", "variants": [v for v, _, _ in scenes],
                 "not_drawn": skipped}
-    where = {"stiffness": " (its drawing is in its report: linkwright stiffness)"}
-    raise study.error("study.command", f"linkwright draw draws analyze and synth studies; "
-                      f"this is a {study.command} study"
+    if study.command == "stiffness" and study.has("hexapod"):
+        progress("drawing the hexapod at its pose")
+        scn, loaded = hexapod_drawing(study)
+        out.add("hexapod.png", figure_png(draw_scene(scn), dpi=110))
+        out.add("hexapod.html", html_animation(scn, limit=FRAMES))
+        return {"command": "draw", "study": "stiffness", "loaded": loaded}
+    where = {"stiffness": " (a mechanism stiffness study: its drawing is in its report, "
+                          "linkwright stiffness)"}
+    raise study.error("study.command", f"linkwright draw draws analyze, synth and hexapod "
+                      f"stiffness studies; this is a {study.command} study"
                       + where.get(study.command, " (no drawing of its own)"))
+
+
+def hexapod_drawing(study: Study):
+    """The scene of a hexapod stiffness study at its pose (legs coloured by the load case's
+    forces when ``[report] wrench`` is given) and whether it is loaded."""
+    from .cmd_stiffness import _singular, hexapod_of, hexapod_scene_of
+    hx, T = hexapod_of(study)
+    rsec = study.section("report", required=False)
+    wrench = rsec.get("wrench", "vec", None, length=6) if rsec else None
+    res = hx.stiffness(T, frame="platform")
+    if not res.cond_P <= hx.singular_cond:
+        raise _singular(study, hx, T, res.cond_P)
+    forces = None if wrench is None else hx.leg_forces(T, np.asarray(wrench, float))
+    return hexapod_scene_of(hx, T, res, forces), forces is not None

@@ -66,9 +66,8 @@ def _singular(study: Study, hx: Hexapod, T, cond) -> StudyError:
                                "(linearly dependent leg lines); move or turn the platform")
 
 
-def run(study: Study, out: Outputs, progress) -> dict:
-    if study.has("mechanism"):
-        return run_mechanism(study, out, progress)
+def hexapod_of(study: Study):
+    """The hexapod and pose ``(hx, T)`` of a hexapod stiffness study (errors name the key)."""
     h = study.section("hexapod")
     k = h.get("leg_stiffness", "vec" if isinstance(h.data.get("leg_stiffness"), list) else "float")
     try:
@@ -76,7 +75,13 @@ def run(study: Study, out: Outputs, progress) -> dict:
     except StiffnessError as e:
         key = _hexapod_key(str(e))
         raise h.error(key, str(e).split(":", 1)[1].strip() if key else str(e)) from None
-    T = _pose(study.section("pose"))
+    return hx, _pose(study.section("pose"))
+
+
+def run(study: Study, out: Outputs, progress) -> dict:
+    if study.has("mechanism"):
+        return run_mechanism(study, out, progress)
+    hx, T = hexapod_of(study)
     try:
         return _report(study, out, progress, hx, T)
     except SingularPoseError:     # K or P singular past the package's limits: bad input
@@ -260,7 +265,7 @@ def stiffness_report(hx: Hexapod, T, res, *, frame_name: str, wrench=None, posit
         summary["deflection_translation"] = quantity(d[:3], "m")
         summary["deflection_rotation"] = quantity(d[3:], "rad")
     if figures:
-        _hexapod_drawing(rep, hx, T, res, V, None if wrench is None else tau)
+        _hexapod_drawing(rep, hx, T, res, None if wrench is None else tau)
     if positions is not None:
         rots = np.atleast_2d(rv) if rotations is None else rotations   # checked by map
         if progress is not None:
@@ -277,10 +282,12 @@ def stiffness_report(hx: Hexapod, T, res, *, frame_name: str, wrench=None, posit
     return rep, tables, summary
 
 
-def _hexapod_drawing(rep: Report, hx: Hexapod, T, res, V, forces) -> None:
-    """The hexapod at its pose: legs coloured by force (when loaded), the weakest and
-    stiffest translation directions as arrows at K's reference point."""
+def hexapod_scene_of(hx: Hexapod, T, res, forces=None):
+    """The drawing of the hexapod at its pose: legs coloured by ``forces`` (N, one per
+    leg; None: unloaded), the weakest and stiffest translation directions of ``res.K`` as
+    arrows at K's reference point."""
     from .draw import hexapod_scene
+    _, V = _directions(res.K[:3, :3])
     Rt = np.asarray(res.R, float).reshape(3, 3).T            # the result's axes → base axes
     ref = np.asarray(res.reference, float).reshape(3)
     L = 0.3 * float(np.linalg.norm(np.ptp(np.vstack([hx.base, hx.platform_points_world(T)]),
@@ -288,13 +295,22 @@ def _hexapod_drawing(rep: Report, hx: Hexapod, T, res, V, forces) -> None:
     scn = hexapod_scene(hx.base, hx.platform, T, forces=forces, title="Hexapod at the pose",
                         arrows={"weakest": (ref, L * (Rt @ V[:, 0]), "#d62728"),
                                 "stiffest": (ref, L * (Rt @ V[:, 2]), "#2ca02c")})
+    return scn
+
+
+#: the caption of the hexapod drawing (report and ``linkwright draw``)
+def hexapod_caption(loaded: bool) -> str:
+    return ("The hexapod at the pose (base frame): Hooke crosses at the base, balls at the "
+            "platform; arrows at K's reference point along the weakest (red) and stiffest "
+            "(green) translation directions"
+            + ("; legs coloured by force, tension red, compression blue, the legend giving "
+               "each force." if loaded else "."))
+
+
+def _hexapod_drawing(rep: Report, hx: Hexapod, T, res, forces) -> None:
+    scn = hexapod_scene_of(hx, T, res, forces)
     rep.heading("Drawing")
-    rep.drawing("hexapod", scn,
-                "The hexapod at the pose (base frame): Hooke crosses at the base, balls at "
-                "the platform; arrows at K's reference point along the weakest (red) and "
-                "stiffest (green) translation directions"
-                + ("; legs coloured by force, tension red, compression blue, the legend "
-                   "giving each force." if forces is not None else "."))
+    rep.drawing("hexapod", scn, hexapod_caption(forces is not None))
 
 
 def _map_section(rep: Report, mp: pd.DataFrame, hx: Hexapod, figures: bool = True) -> None:

@@ -117,7 +117,24 @@ def test_draw_command_on_the_examples(tmp_path, capsys):
     assert {Path(f).suffix for f in summary["files"]} == {".png", ".html"}
 
 
-@pytest.mark.parametrize("name", ["hexapod.toml", "missing.toml"])
+def test_draw_command_on_a_hexapod_stiffness_study(tmp_path, capsys):
+    from linkwright.cmd_draw import hexapod_drawing
+    from linkwright.study import load_study as load
+    assert main(["draw", str(EX / "hexapod.toml"), "-o", str(tmp_path / "h"), "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert {Path(f).name for f in summary["files"]} == {"hexapod.png", "hexapod.html"}
+    # the drawn joints are the hexapod's attachment points at the study's pose
+    from linkwright.cmd_stiffness import hexapod_of
+    study = load(EX / "hexapod.toml")
+    hx, T = hexapod_of(study)
+    scn, _ = hexapod_drawing(study)
+    want = np.vstack([hx.base, hx.platform_points_world(T)])
+    got = np.asarray(scn.position[0], float).reshape(-1, 3)
+    for w in want:
+        assert np.min(np.linalg.norm(got - w, axis=1)) < 1e-12
+
+
+@pytest.mark.parametrize("name", ["three_rps_head.toml", "missing.toml"])
 def test_draw_bad_input_exits_2_naming_the_file(name, tmp_path, capsys):
     study = (EX / name) if (EX / name).exists() else tmp_path / name
     assert main(["draw", str(study), "-o", str(tmp_path / "o")]) == 2

@@ -75,6 +75,27 @@ def _chain_of(row):
     return kinds, frames, centre
 
 
+def chain_mechanism(row):
+    """The variant's open chain as an engine mechanism, every joint coordinate an input
+    (links ``A``, ``B``, ``body``; with a sphere at the body end the chain stops at the
+    sphere's link): ``(mechanism, driven joint kinds, sphere centre or None)``, or None
+    where the joints cannot be driven."""
+    chain = _chain_of(row)
+    if chain is None:
+        return None
+    kinds, frames, centre = chain
+    links = ["ground", "A", "B"][:len(kinds)] + ["body"] if centre is None else \
+        ["ground", "A", "B"][:len(kinds) + 1]          # ends at the sphere's link
+    m = Mechanism(links[1:])
+    for k, t in enumerate(kinds):
+        pitch = float(row[f"j{k + 1}_pitch"]) if t == "H" else None
+        m.add_joint(f"j{k + 1}", t, links[k], links[k + 1], at=frames[k], pitch=pitch)
+        m.add_input(f"j{k + 1}", 0)
+        if t in "CU":
+            m.add_input(f"j{k + 1}", 1)
+    return m, kinds, centre
+
+
 def _values(row, kinds, n):
     cols = []
     for k, t in enumerate(kinds, start=1):
@@ -120,20 +141,12 @@ def variant_scenes(ranked, T, family: str, best: int = BEST):
     for _, row in rows.iterrows():
         if len(out) == best:
             break
-        chain = _chain_of(row)
+        chain = chain_mechanism(row)
         if chain is None:
             skipped += 1
             continue
-        kinds, frames, centre = chain
-        links = ["ground", "A", "B"][:len(kinds)] + ["body"] if centre is None else \
-            ["ground", "A", "B"][:len(kinds) + 1]          # ends at the sphere's link
-        m = Mechanism(links[1:])
-        for k, t in enumerate(kinds):
-            pitch = float(row[f"j{k + 1}_pitch"]) if t == "H" else None
-            m.add_joint(f"j{k + 1}", t, links[k], links[k + 1], at=frames[k], pitch=pitch)
-            m.add_input(f"j{k + 1}", 0)
-            if t in "CU":
-                m.add_input(f"j{k + 1}", 1)
+        m, kinds, centre = chain
+        links = m.links
         pose = m.solve(_values(row, kinds, len(T)), continuation=False)
         v = int(row.variant)
         if centre is None:

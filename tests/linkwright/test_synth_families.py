@@ -6,9 +6,8 @@ import json
 import numpy as np
 import pytest
 
-from closure import Mechanism
 from linkwright.cli import main
-from linkwright.cmd_draw import _chain_of, _values
+from linkwright.cmd_draw import _values, chain_mechanism
 from linkwright.cmd_synth import chain_jacobian
 from linkwright.examples import folder as examples_folder
 
@@ -24,15 +23,7 @@ def _study(tmp_path, family, extra=""):
 def _engine_twists(row, p, eps=1e-6):
     """Spatial twists (ω, v at the origin) of the body per joint coordinate, by central
     differences of the engine's body pose at position p (1-based)."""
-    kinds, frames, _ = _chain_of(row)
-    m = Mechanism(["A", "B", "body"])
-    links = ["ground", "A", "B", "body"]
-    for k, t in enumerate(kinds):
-        pitch = float(row[f"j{k + 1}_pitch"]) if t == "H" else None
-        m.add_joint(f"j{k + 1}", t, links[k], links[k + 1], at=frames[k], pitch=pitch)
-        m.add_input(f"j{k + 1}", 0)
-        if t in "CU":
-            m.add_input(f"j{k + 1}", 1)
+    m, kinds, _ = chain_mechanism(row)
     x = _values(row, kinds, p)[p - 1]
     cols = []
     for j in range(len(x)):

@@ -508,6 +508,7 @@ BENCHES = {"closure": bench_closure, "synthesis": bench_synthesis, "stiffness": 
            "links": _lazy("bench_links", "bench_links"),
            "families": _lazy("bench_families", "bench_families"),
            "complete": _lazy("bench_complete", "bench_complete"),
+           "grid": _lazy("bench_grid", "bench_grid"),
            "kernels": _lazy("bench_stiffness_speed", "bench_stiffness_speed"),
            "surrogate-dynamics": _lazy("bench_approx_dynamics", "bench_surrogate_dynamics")}
 

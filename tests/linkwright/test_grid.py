@@ -188,3 +188,68 @@ def test_missing_extra_is_a_clear_error(tmp_path):
     r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True)
     assert r.returncode == 2
     assert 'pip install "linkwright[dist]"' in r.stderr
+
+
+# ------------------------------------------------------------------ blocked stiffness maps
+def _hexapod():
+    from linkwright.cmd_stiffness import hexapod_of
+    from linkwright.study import load_study
+    return hexapod_of(load_study(examples_folder() / "hexapod.toml"))[0]
+
+
+AXES = (np.linspace(-0.1, 0.1, 21), np.linspace(-0.1, 0.1, 19), np.linspace(0.6, 0.8, 11))
+
+
+@pytest.fixture(scope="module")
+def exact_map():
+    hx = _hexapod()
+    X, Y, Z = np.meshgrid(*AXES, indexing="ij")
+    return hx.map(np.column_stack([X.ravel(), Y.ravel(), Z.ravel()]), np.zeros((1, 3)))
+
+
+def _check_summary(s, mp):
+    from linkwright.bigmap import INDICES
+    assert s.poses == len(mp) and s.singular == int(mp.singular.sum())
+    q = s.quantiles.set_index("index")
+    for col in INDICES:
+        assert q.loc[col, "min"] == mp[col].min() and q.loc[col, "max"] == mp[col].max()
+        for p in (1, 5, 50, 95, 99):
+            exact = mp[col].quantile(p / 100)
+            assert abs(q.loc[col, f"q{p:02d}"] / exact - 1) < 0.025, (col, p)   # one bin
+    assert np.allclose(s.worst.kt_min, mp.kt_min.nsmallest(len(s.worst)), rtol=0, atol=0)
+
+
+def test_blocked_map_summary_and_parts_are_the_exact_map(tmp_path, exact_map):
+    from linkwright.bigmap import stiffness_map
+    s = stiffness_map(_hexapod(), *AXES, out=tmp_path / "m", serial=True, block=1000)
+    _check_summary(s, exact_map)
+    parts = pd.concat([pd.read_parquet(p) for p in sorted((tmp_path / "m").glob("*.parquet"))])
+    assert len(parts) == len(exact_map)
+    cols = ["x", "y", "z", "kt_min", "cr_max"]
+    a = parts[cols].sort_values(["x", "y", "z"]).to_numpy()
+    b = exact_map[cols].sort_values(["x", "y", "z"]).to_numpy()
+    assert np.array_equal(a, b)
+    # a stopped run resumes: remove two blocks, run again, only those are computed
+    for p in sorted((tmp_path / "m").glob("part-00000[13].*")):
+        p.unlink()
+    with pytest.raises(FileExistsError, match="resume"):
+        stiffness_map(_hexapod(), *AXES, out=tmp_path / "m", serial=True, block=1000)
+    r = stiffness_map(_hexapod(), *AXES, out=tmp_path / "m", serial=True, block=1000,
+                      resume=True)
+    assert r.blocks == 2
+    _check_summary(r, exact_map)
+
+
+def test_blocked_map_on_the_cluster_equals_serial(client, exact_map):
+    from linkwright.bigmap import stiffness_map
+    s = stiffness_map(_hexapod(), *AXES, client=client, block=1000)
+    _check_summary(s, exact_map)
+
+
+@pytest.mark.parametrize("kw, name", [({"block": 10}, "block"), ({"rotation": [0, 1]}, "rotation")])
+def test_blocked_map_bad_input(kw, name):
+    from linkwright.bigmap import stiffness_map
+    with pytest.raises(ValueError, match=name):
+        stiffness_map(_hexapod(), *AXES, serial=True, **kw)
+    with pytest.raises(ValueError, match="xs"):
+        stiffness_map(_hexapod(), [np.nan], AXES[1], AXES[2], serial=True)

@@ -110,7 +110,9 @@ def _report(study: Study, out: Outputs, progress, hx: Hexapod, T) -> dict:
         if np.prod(counts, dtype=float) > MAX_MAP_POSES:
             raise msec.error("x", f"the map has {np.prod(counts, dtype=float):.3g} poses "
                                   f"({' × '.join(map(str, counts))}); at most {MAX_MAP_POSES:,} "
-                                  "fit one run: use fewer points per axis or split the map")
+                                  "fit one report: use fewer points per axis, or run the map "
+                                  "in blocks on Dask with linkwright.bigmap.stiffness_map "
+                                  "(docs: studies-on-dask.md)")
         xs = xs if xs is not None else np.array([T[0, 3]])
         ys = ys if ys is not None else np.array([T[1, 3]])
         zs = zs if zs is not None else np.array([T[2, 3]])

@@ -715,6 +715,9 @@ def _translate_key(path, schema, raw, err) -> tuple[str, str]:
             near = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
             hint = (f"did you mean '{near[0]}'?" if near else
                     "expected one of " + ", ".join(f"'{k}'" for k in known))
+            if name == "grid" and not parts:
+                hint = ("a [grid] study runs case by case with `linkwright grid FILE -o OUT` "
+                        "(on Dask, or --serial)")
             key = ".".join(parts + [name])
             return key, f"unknown {'section' if is_sec else 'key'}; {hint}"
         field = fields[part]

@@ -69,6 +69,9 @@ MALFORMED = {
                     "pose.rotation_degs", "unknown key; did you mean 'rotation_deg'?"),
     "unknown section": ("hexapod.toml", "[report]", "[reprot]", "stiffness", "reprot",
                         "unknown section; did you mean 'report'?"),
+    "grid in a plain run": ("hexapod.toml", "[report]", '[grid]\n"hexapod.leg_stiffness" = '
+                            '[1.0e7, 2.0e7]\n[report]', "stiffness", "grid",
+                            "runs case by case with `linkwright grid FILE -o OUT`"),
     "NaN": ("hexapod.toml", "position = [0.0, 0.0, 0.7]", "position = [0.0, nan, 0.7]",
             "stiffness", "pose.position", "expected finite numbers"),
     "wrong type": ("seed001_rrr.toml", "angle_deg = 30.0", 'angle_deg = "30"', "synth",

@@ -243,6 +243,9 @@ def link_from_row(row) -> BinaryLink:
     SynthesisError
         A row that is not a regular two-joint link (naming what is missing).
     """
+    if not hasattr(row, "get") or not hasattr(row, "__getitem__") or isinstance(row, str):
+        raise SynthesisError(f"row: expected a table row (pandas Series or mapping), got "
+                             f"{type(row).__name__}")
     types = "".join(str(row.get(f"j{k}_type", "")) for k in (1, 2))
     if len(types) != 2 or any(t not in "RHPCS" for t in types) or \
             isinstance(row.get("j3_type"), str):
@@ -255,10 +258,15 @@ def link_from_row(row) -> BinaryLink:
     while f"q1_pos{n + 1}" in row:
         n += 1
     for k, t in enumerate(types, start=1):
-        u = np.array([row[f"j{k}_u{c}"] for c in "xyz"], float)
-        pt = np.array([row[f"j{k}_{c}"] for c in "xyz"], float)
+        try:
+            u = np.array([row[f"j{k}_u{c}"] for c in "xyz"], float)
+            pt = np.array([row[f"j{k}_{c}"] for c in "xyz"], float)
+        except KeyError as e:
+            raise SynthesisError(f"row: missing column {e}") from None
         if t == "S":
             u = np.array([0.0, 0.0, 1.0])
+        if not (np.all(np.isfinite(u)) and np.all(np.isfinite(pt))):
+            raise SynthesisError(f"row: joint {k} has a non-finite axis or point")
         lines.append(Line(u, pt))
         q = np.array([row.get(f"q{k}_pos{p}", np.nan) for p in range(1, n + 1)], float)
         d = np.array([row.get(f"d{k}_pos{p}", 0.0) for p in range(1, n + 1)], float)
@@ -301,8 +309,15 @@ def assemble_table(table: pd.DataFrame, screws, *, links: int = 2, drive: str | 
     """
     from .validate import integer
     links = integer(links, "links", low=2)
+    steps = integer(steps, "steps", low=8)
+    tol = number(tol, "tol", positive=True)
     if not isinstance(table, pd.DataFrame):
         raise SynthesisError(f"table: expected a pandas DataFrame, got {type(table).__name__}")
+    scr = _screws(screws, "screws")
+    n_pos = sum(1 for c in table.columns if str(c).startswith("q1_pos"))
+    if n_pos and len(scr) + 1 != n_pos:
+        raise SynthesisError(f"screws: the table's links go through {n_pos} positions, the "
+                             f"screws give {len(scr) + 1}")
     ok = table[table.get("reason", pd.Series("", index=table.index)).fillna("") == ""]
     rows = []
     for combo in itertools.combinations(range(len(ok)), links):

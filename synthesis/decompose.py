@@ -53,7 +53,7 @@ from .spherical import task_frame
 from .transition import TRANSITION_POSITIONS, transition_joint
 from .twopos import two_position_link
 from .validate import array, task_scale
-from .verify import _frames_of, pose_errors
+from .verify import _frames_of, in_chunks, pose_errors
 
 __all__ = ["MAIN_POSITIONS", "arrangements", "decomposed_dyads", "FREE_PARAMETERS"]
 
@@ -239,10 +239,7 @@ def _from_rr(lk) -> BinaryLink:
 
 
 # ------------------------------------------------------------------ verification
-#: chains per engine mechanism in :func:`verify_dyads` (measured: 32 is the fastest)
-_VERIFY_CHUNK = 32
-
-
+@in_chunks
 def verify_dyads(chains, targets, length: float) -> np.ndarray:
     """Drive three-joint chains (R, P, C, H) through their joint values with the closure
     engine (all in one mechanism, one batched call) and return each chain's largest pose
@@ -253,12 +250,6 @@ def verify_dyads(chains, targets, length: float) -> np.ndarray:
     """
     if not chains:
         return np.zeros(0)
-    if len(chains) > _VERIFY_CHUNK:
-        # the engine's batched solve carries dense (positions, coordinates, inputs)
-        # arrays, quadratic in the chains of one mechanism: mechanisms of a few dozen
-        # chains each are faster (same poses, same residuals: the chains are independent)
-        return np.concatenate([verify_dyads(chains[i:i + _VERIFY_CHUNK], targets, length)
-                               for i in range(0, len(chains), _VERIFY_CHUNK)])
     m = Mechanism()
     frames = _frames_of([ln for c in chains for ln in c[1]])
     cols = []

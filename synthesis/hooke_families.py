@@ -40,7 +40,7 @@ from .errors import SynthesisError
 from .screw import Line
 from .transition import transition_joint
 from .validate import array
-from .verify import _frames_of, pose_errors
+from .verify import _frames_of, in_chunks, pose_errors
 
 __all__ = ["hooke_arrangements", "hooke_family_dyads"]
 
@@ -105,6 +105,7 @@ def _rot(u, ang):
 _SLOTS = {"R": (0,), "H": (0,), "P": (1,), "C": (0, 1), "U": (0, 1)}
 
 
+@in_chunks
 def verify_hooke(chains, targets, length: float) -> np.ndarray:
     """Pose errors of chains with a U joint, driven by the engine in one batched call.
 

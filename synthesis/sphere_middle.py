@@ -37,7 +37,7 @@ from .decompose import angle_grid, nan_geometry, task_positions
 from .errors import SynthesisError
 from .screw import Line
 from .transition import transition_joint
-from .verify import _frames_of
+from .verify import _frames_of, in_chunks
 
 __all__ = ["middle_arrangements", "sphere_middle_dyads", "verify_split"]
 
@@ -72,6 +72,7 @@ def middle_arrangements(family: str, n_positions: int | None = None) -> list[tup
     return out
 
 
+@in_chunks
 def verify_split(chains, targets, length: float) -> np.ndarray:
     """Centre errors of chains with a sphere, split at the sphere.
 

@@ -32,7 +32,7 @@ from .validate import integer, number
 
 __all__ = ["ToleranceResult", "chain_tolerance"]
 
-_BLOCK = 500          # chains per engine call (memory and build cost stay bounded)
+_BLOCK = 32           # chains per engine mechanism (the engine's batched solve is quadratic in it)
 
 
 @dataclass
@@ -68,6 +68,16 @@ class ToleranceResult:
 
 def _chain(row):
     """Kinds, lines (u, c), and the engine's input values (P, n_inputs) of a table row."""
+    if not hasattr(row, "get") or not hasattr(row, "__getitem__") or isinstance(row, str):
+        raise SynthesisError(f"row: expected a table row (pandas Series or mapping), got "
+                             f"{type(row).__name__}")
+    try:
+        return _chain_of_row(row)
+    except KeyError as e:
+        raise SynthesisError(f"row: missing column {e}") from None
+
+
+def _chain_of_row(row):
     ks = [k for k in (1, 2, 3) if isinstance(row.get(f"j{k}_type"), str)]
     kinds = [row[f"j{k}_type"] for k in ks]
     if not ks or any(t not in "RPHC" for t in kinds):

@@ -8,6 +8,8 @@ Errors are rotations (rad) or translations divided by a length (the task's reach
 """
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from closure import Mechanism, transform
@@ -18,8 +20,28 @@ from .screw import Line
 from .validate import array, line, number
 from .validate import transform as _transform
 
-__all__ = ["chain_mechanism", "verify_chain", "verify_chains", "verify_points", "pose_error",
+__all__ = ["in_chunks", "chain_mechanism", "verify_chain", "verify_chains", "verify_points", "pose_error",
            "pose_errors", "verify_links", "verify_open_chains"]
+
+
+#: chains per engine mechanism in the verifications (measured: a few dozen is fastest)
+VERIFY_CHUNK = 32
+
+
+def in_chunks(verify):
+    """Run a verification ``verify(chains, targets, length)`` over chunks of
+    :data:`VERIFY_CHUNK` chains, one engine mechanism each, and join the errors: the
+    engine's batched solve carries dense (positions, coordinates, inputs) arrays,
+    quadratic in the chains of one mechanism, and the chains are independent (same
+    poses, same errors)."""
+    @functools.wraps(verify)
+    def run(chains, targets, length: float = 1.0):
+        chains = list(chains)
+        if len(chains) <= VERIFY_CHUNK:
+            return verify(chains, targets, length)
+        return np.concatenate([verify(chains[i:i + VERIFY_CHUNK], targets, length)
+                               for i in range(0, len(chains), VERIFY_CHUNK)])
+    return run
 
 
 def _frame_of(line: Line) -> np.ndarray:
@@ -113,6 +135,7 @@ def pose_errors(A, B, length: float = 1.0):
     return rot, pos / length
 
 
+@in_chunks
 def verify_chains(chains, targets, length: float = 1.0) -> np.ndarray:
     """Verify many synthesised chains at once: all of them hang from the ground of one
     engine mechanism, driven by their joint values at every position in one batched call.
@@ -139,6 +162,7 @@ def verify_chains(chains, targets, length: float = 1.0) -> np.ndarray:
     return np.maximum(rot.max(0), pos.max(0))
 
 
+@in_chunks
 def verify_points(chains, targets, length: float = 1.0) -> np.ndarray:
     """Verify sphere-ended chains: the two joints before the sphere are driven by the engine
     (all chains in one mechanism, one batched call) and the sphere centre's position is

@@ -20,7 +20,7 @@ from synthesis import (cc_direction_residual, cc_directions, cc_links, cr_links,
 from synthesis import (azimuth_of, complete_dyads, hp_links, hs_links, implemented_families,
                        least_squares_dyads, ph_links, ps_links, rs_links_at, sh_links, sp_links,
                        sr_links, task_frame, u_directions, uc_links, uh_links, up_links, ur_links)
-from synthesis import assemble
+from synthesis import assemble, assemble_table, chain_tolerance, link_from_row
 from synthesis.dyads import verify_chains
 from synthesis.rr import _rot
 
@@ -48,7 +48,7 @@ ROT4 = np.array([np.eye(3)] + [s.matrix()[:3, :3] for s in SEED])
 N_SCREWS = {"task_frame": None, "azimuth_of": None, "ps_links": 2, "sp_links": 2,
             "up_links": 2, "rs_links_at": 3, "sr_links": 3, "hs_links": 3, "sh_links": 3,
             "ur_links": 3, "uh_links": 3, "uc_links": 3, "complete_dyads": 4,
-            "least_squares_dyads": (3, None), "assemble": (2, None)}
+            "least_squares_dyads": (3, None), "assemble": (2, None), "assemble_table": (2, None)}
 
 
 def row_lines(row):
@@ -70,6 +70,9 @@ def moved(G, line: Line) -> Line:
 
 
 # ------------------------------------------------------------------ bad inputs
+_RRR = enumerate_dyads("RRR", SEED)
+_RRR_ROW = _RRR[_RRR.reason == ""].iloc[0]
+
 CASES = {
     "Screw": (Screw, dict(axis=np.array([0, 0, 1.0]), point=P0, angle=0.5, slide=0.1)),
     "Screw.from_degrees": (Screw.from_degrees, dict(axis=np.array([0, 0, 1.0]), point=P0,
@@ -132,6 +135,11 @@ CASES = {
     "implemented_families": (implemented_families, dict()),
     "assemble": (assemble, dict(links=rr_links(SEED[0], SEED[1]), screws=SEED[:2], steps=60,
                                 tol=1e-9)),
+    "assemble_table": (assemble_table, dict(table=complete_dyads("RR", SEED[:2]),
+                                            screws=SEED[:2], steps=60, tol=1e-9)),
+    "link_from_row": (link_from_row, dict(row=complete_dyads("RR", SEED[:2]).iloc[0])),
+    "chain_tolerance": (chain_tolerance, dict(row=_RRR_ROW, direction_sigma=1e-3,
+                                              position_sigma=1e-3, samples=20, length=1.0)),
 }
 SCREWS, LINES = {"other", "s1j", "s1k", "s12", "s13"}, {"previous", "other_line"}
 POSITIVE = {"tol", "length"}
@@ -191,6 +199,9 @@ def corruptions(fname, name, value):
         f["reason"] = "degenerate positions"
         return [("None", None), ("int", 3), ("missing column", value.drop("j2_uy")),
                 ("NaN axis", r), ("failed variant", f), ("dict missing", {"j1_type": "R"})]
+    if name == "table":
+        return common + [("list", [1.0, 2.0]), ("records", value.to_dict("records")),
+                         ("array", np.ones((2, 3)))]
     if name in ("samples", "steps"):
         return [("float", 60.5), ("str", "60"), ("None", None), ("too few", 1), ("bool", True)]
     if isinstance(value, float):
@@ -260,7 +271,8 @@ def test_the_tables_valid_arguments_work(fname):
 def test_every_public_function_is_covered_by_the_bad_input_table():
     import synthesis
     covered = {name.split(".")[0] for name in CASES} | {
-        "RRLink", "RSLink", "BinaryLink", "Assembly", "SynthesisError", "DYAD_COLUMNS", "JOINT_LETTERS", "families"}
+        "RRLink", "RSLink", "BinaryLink", "Assembly", "SynthesisError", "DYAD_COLUMNS", "JOINT_LETTERS", "families",
+        "ToleranceResult"}
     assert set(synthesis.__all__) <= covered
     assert families().shape[0] > 0
 

@@ -93,6 +93,7 @@ class Mechanism:
         self._joint_by_name: dict[str, Joint] = {}
         self._singular_assembly = False
         self.inputs: list[tuple[int, int]] = []
+        self._input_set: set[tuple[int, int]] = set()
         self._q0: list[np.ndarray] = []
         self._rot0: list[np.ndarray | None] = []
         self._tree: _Tree | None = None
@@ -207,9 +208,11 @@ class Mechanism:
         if not (0 <= int(index) < j.nq):
             raise MechanismError(f"add_input: joint {joint!r} ({j.kind}) has coordinates "
                                  f"{j.coordinate_names}; index {index} is out of range")
-        if (j.index, int(index)) in self.inputs:
+        key = (j.index, int(index))
+        if key in self._input_set:                 # a set: declaring n inputs stays O(n)
             raise MechanismError(f"add_input: {joint}[{index}] is already an input")
-        self.inputs.append((j.index, int(index)))
+        self.inputs.append(key)
+        self._input_set.add(key)
         self._tree = None
 
     def joint(self, name: str) -> Joint:

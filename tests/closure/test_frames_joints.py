@@ -125,3 +125,16 @@ def test_more_inputs_than_mobility_is_an_error():
     m.add_input("B")
     with pytest.raises(MechanismError, match="2 inputs declared but the mechanism's mobility"):
         m.solve([0.1, 0.2])
+
+
+def test_an_input_declared_twice_is_refused_and_many_inputs_keep_their_order():
+    from closure.frames import transform
+    m = Mechanism()
+    for v in range(300):
+        m.add_link(f"L{v}")
+        m.add_joint(f"j{v}", "C", "ground", f"L{v}", at=transform(None, [v, 0.0, 0.0]))
+        m.add_input(f"j{v}", 1)
+        m.add_input(f"j{v}", 0)
+    assert m.inputs[:4] == [(0, 1), (0, 0), (1, 1), (1, 0)] and len(m.inputs) == 600
+    with pytest.raises(MechanismError, match=r"j7\[0\] is already an input"):
+        m.add_input("j7", 0)

@@ -130,8 +130,8 @@ def stiffness_map(hx, xs, ys, zs, rotation=(0.0, 0.0, 0.0), *, out=None, client=
         Folder for the parts (``part-NNNNNN.parquet`` and its summary ``.json``); without
         it only the summary is kept.
     client : distributed.Client, optional
-        Where the blocks run (default: a LocalCluster sized to the machine, unless
-        ``serial``).
+        Where the blocks run (default: the scheduler at ``DASK_SCHEDULER_ADDRESS``, else a
+        LocalCluster sized to the machine; unless ``serial``).
     serial : bool
         Run the blocks in this process.
     block : int
@@ -179,26 +179,13 @@ def stiffness_map(hx, xs, ys, zs, rotation=(0.0, 0.0, 0.0), *, out=None, client=
                 if bar is not None:
                     bar.update(results[-1]["n"])
         else:
-            from .distributed import _need
-            _need("dask")
-            distributed = _need("distributed")
-            own = None
-            if client is None:
-                cluster = distributed.LocalCluster(processes=True, threads_per_worker=1,
-                                                   dashboard_address=None)
-                client = own = distributed.Client(cluster)
-            try:
+            from .distributed import dask_client
+            with dask_client(client) as (client, distributed):
                 futs = [client.submit(_block_task, *a, pure=False) for a in args]
                 for f in distributed.as_completed(futs):
                     results.append(f.result())
                     if bar is not None:
                         bar.update(results[-1]["n"])
-            finally:
-                if own is not None:
-                    cl = getattr(own, "cluster", None)
-                    own.close()
-                    if cl is not None:
-                        cl.close()
     finally:
         if bar is not None:
             bar.close()

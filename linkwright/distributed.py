@@ -6,6 +6,7 @@ Dask (``dask[distributed]``) and pyarrow are imported only here, only when a gri
 """
 from __future__ import annotations
 
+import contextlib
 import io
 import json
 import os
@@ -36,6 +37,32 @@ def _need(module: str):
         raise MissingExtraError(
             f"linkwright grid needs {module}, which is not installed: "
             "pip install \"linkwright[dist]\" (dask[distributed] and pyarrow)") from None
+
+
+@contextlib.contextmanager
+def dask_client(client=None):
+    """``(client, distributed module)``: ``client`` itself, or one of its own (on the
+    scheduler at ``DASK_SCHEDULER_ADDRESS``, else a LocalCluster sized to the machine),
+    closed with its cluster on exit."""
+    _need("dask")
+    distributed = _need("distributed")
+    own = None
+    if client is None:
+        addr = os.environ.get("DASK_SCHEDULER_ADDRESS")
+        if addr:
+            client = own = distributed.Client(addr)
+        else:
+            cluster = distributed.LocalCluster(processes=True, threads_per_worker=1,
+                                               dashboard_address=None)
+            client = own = distributed.Client(cluster)
+    try:
+        yield client, distributed
+    finally:
+        if own is not None:
+            cluster = getattr(own, "cluster", None)
+            own.close()
+            if cluster is not None:
+                cluster.close()
 
 
 def partitions(n_cases: int, size: int) -> list[range]:
@@ -188,29 +215,12 @@ def run_study(study, client=None, *, out=None, serial: bool = False, resume: boo
                     break
                 finished(p, run_partition(grid.command, str(grid.path), payload(p)))
         else:
-            _need("dask")
-            distributed = _need("distributed")
-            own = None
-            if client is None:
-                addr = os.environ.get("DASK_SCHEDULER_ADDRESS")
-                if addr:
-                    client = own = distributed.Client(addr)
-                else:
-                    cluster = distributed.LocalCluster(processes=True, threads_per_worker=1,
-                                                       dashboard_address=None)
-                    client = own = distributed.Client(cluster)
-            try:
+            with dask_client(client) as (client, distributed):
                 futures = {client.submit(run_partition, grid.command, str(grid.path),
                                          payload(p), pure=False, key=f"linkwright-part-{p}-"
                                          f"{time.time_ns()}"): p for p in todo}
                 for fut in distributed.as_completed(futures):
                     finished(futures[fut], fut.result())
-            finally:
-                if own is not None:
-                    cluster = getattr(own, "cluster", None)
-                    own.close()
-                    if cluster is not None:
-                        cluster.close()
     finally:
         if bar is not None:
             bar.close()

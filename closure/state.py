@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .frames import _log_se3, _log_so3, _EYE3
+from .frames import _inverse, _log_se3, _log_so3, _EYE3
 
 __all__ = ["KinematicState", "Plan"]
 
@@ -160,8 +160,7 @@ class Plan:
         self._u_mid = _U_MID
         fa = np.array([j.frame_a for j in joints]).reshape(nj, 4, 4)
         fb = np.array([j.frame_b for j in joints]).reshape(nj, 4, 4)
-        fai = np.array([j.frame_a_inv for j in joints]).reshape(nj, 4, 4)
-        fbi = np.array([j.frame_b_inv for j in joints]).reshape(nj, 4, 4)
+        fai, fbi = _inverse(fa), _inverse(fb)          # batched: one call for all joints
         self.frames_a = fa
         # joint matrices: one template (identity) and the index arrays of each kind
         self._template = np.broadcast_to(np.eye(4), (nj, 4, 4)).copy()

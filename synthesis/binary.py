@@ -265,17 +265,25 @@ def _screw_matrix(u, c, ang, slide):
     return T
 
 
+def _cross(a, b):
+    """``np.cross`` of 3-vectors over broadcast leading axes, without its axis handling
+    (the same products and differences, a fraction of the call overhead)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], -1)
+
+
 def _perp(u):
     """Two unit vectors ``(..., 3)`` completing unit ``u (..., 3)`` to a right-handed frame."""
     a = np.where((np.abs(u[..., 0]) < 0.9)[..., None], [1.0, 0, 0], [0, 1.0, 0])
     e1 = a - np.sum(a * u, -1, keepdims=True) * u
     e1 /= np.linalg.norm(e1, axis=-1, keepdims=True)
-    return e1, np.cross(u, e1)
+    return e1, _cross(u, e1)
 
 
 def _signed_angle(a, b, u):
     """Angle ``(...)`` about ``u`` from ``a`` to ``b`` (their components ⊥ u)."""
-    return np.arctan2(np.sum(u * np.cross(a, b), -1), np.sum(a * b, -1) - np.sum(a * u, -1)
+    return np.arctan2(np.sum(u * _cross(a, b), -1), np.sum(a * b, -1) - np.sum(a * u, -1)
                       * np.sum(b * u, -1))
 
 
@@ -291,7 +299,7 @@ def _angles(g, w, R):
     v = g - np.sum(g * w, -1, keepdims=True) * w
     Mv = np.einsum("nmij,nj->nmi", M, v)
     ph = _signed_angle(v[:, None], Mv, w[:, None])
-    sin_gw = np.linalg.norm(np.cross(g, w), axis=-1)
+    sin_gw = np.linalg.norm(_cross(g, w), axis=-1)
     return th, ph, Gm, sin_gw
 
 

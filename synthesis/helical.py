@@ -23,7 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .binary import (BinaryLink, _angles, _batched_lm, _check_rotations, _fibonacci, _finish,
+from .binary import (BinaryLink, _angles, _batched_lm, _check_rotations, _cross, _fibonacci, _finish,
                      _local_minima, _same, _system, _tangent_batch, _task)
 from .errors import SynthesisError
 from .validate import integer, number, screw as _screw, unit
@@ -35,7 +35,7 @@ def _moving_direction(g, R):
     """Moving-axis directions ``(N, 3)`` for fixed directions ``g (N, 3)`` through the
     rotations ``R (2, 3, 3)`` of positions 2, 3, and their unnormalised length."""
     a = np.einsum("mji,nj->nmi", R - np.eye(3), g)            # (R_j − I)ᵀ g
-    w = np.cross(a[:, 0], a[:, 1])
+    w = _cross(a[:, 0], a[:, 1])
     n = np.linalg.norm(w, axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
         return w / n[:, None], n

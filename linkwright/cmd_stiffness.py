@@ -129,10 +129,44 @@ def _report(study: Study, out: Outputs, progress, hx: Hexapod, T) -> dict:
     for w in caught:                                   # any other warning: passed on
         if not issubclass(w.category, SingularPoseWarning):
             warnings.warn(w.message, w.category, stacklevel=2)
+    tsec = study.section("tolerance", required=False)
+    if tsec is not None:
+        summary.update(_tolerance_section(rep, tables, tsec, hx, T, progress))
     for name, df in tables.items():
         out.add_csv(name, df)
     rep.add_to(out)
     return summary
+
+
+def _tolerance_section(rep: Report, tables: dict, sec, hx: Hexapod, T, progress) -> dict:
+    """The ``[tolerance]`` study (:func:`stiffness.tolerance.hexapod_tolerance`) as a report
+    section and ``tolerance.csv``; its figures for the JSON summary."""
+    from stiffness.tolerance import hexapod_tolerance
+    n = sec.get("samples", "int", 2000, low=10)
+    if progress is not None:
+        progress(f"tolerance study: {n} made hexapods")
+    ps, ks = sec.get("point_sigma", low=0.0), sec.get("stiffness_sigma", "float", 0.0, low=0.0)
+    try:
+        r = hexapod_tolerance(hx, T, point_sigma=ps, stiffness_sigma=ks, samples=n,
+                              seed=sec.get("seed", "int", 0, low=0))
+    except StiffnessError as e:
+        raise sec.error("", str(e)) from None
+    t = r.summary
+    tables["tolerance.csv"] = t
+    rep.heading("Manufacturing tolerances")
+    kt = t.set_index("index").loc["kt_min"]
+    rep.findings(f"With attachment points made to σ = {fmt_q(ps, 'm')} per coordinate and leg "
+                 f"stiffnesses to {fmt_num(100 * ks, 3)} %: kt_min {fmt_q(kt['mean'], 'N/m')} ± "
+                 f"{fmt_q(kt['std'], 'N/m')} over {n} made hexapods (design "
+                 f"{fmt_q(kt['nominal'], 'N/m')}); first order "
+                 f"{'holds' if kt['first_order'] == 'reliable' else 'does not hold (a nearly repeated eigenvalue: the sampled figures are the answer)'}.")
+    rep.text("Sampled mean and standard deviation of each index beside the first-order "
+             "prediction (the model's sensitivities by central differences, applied to the "
+             "same samples; `sd_predicted` = sqrt(J Σ Jᵀ)); `gap`: the index eigenvalue's "
+             "relative distance from its neighbour at the design.")
+    rep.table(t, "{:.4g}")
+    return {"tolerance_kt_min_mean": quantity(float(kt["mean"]), "N/m"),
+            "tolerance_kt_min_std": quantity(float(kt["std"]), "N/m")}
 
 
 def map_chunked(hx: Hexapod, positions, rotations, progress=None, chunk: int = 4096):

@@ -267,6 +267,21 @@ class MapSection(Section):
         kind="a list of [from, to, count], one per input")
 
 
+class HexapodToleranceSection(Section):
+    """Manufacturing tolerances of the hexapod: attachment points and leg stiffnesses made
+    with random errors, the stiffness indices at the pose sampled and set beside their
+    first-order prediction (`tolerance.csv`)."""
+
+    point_sigma: Annotated[Number, Field(ge=0)] = F(
+        doc="standard deviation of every coordinate of every attachment point", unit="m",
+        example=0.001)
+    stiffness_sigma: Annotated[Number, Field(ge=0)] = F(
+        0.0, "relative standard deviation of every leg stiffness", unit="1", example=0.05)
+    samples: Annotated[int, Field(ge=10, le=1_000_000)] = F(2000, "Monte Carlo samples",
+                                                            example=2000)
+    seed: Annotated[int, Field(ge=0)] = F(0, "seed of the samples", example=1)
+
+
 class StiffnessStudy(Section):
     """`linkwright stiffness`: a hexapod (`[hexapod]` and `[pose]`) or any mechanism
     (`[mechanism]` and `[elastic]`: exactly one of the two), a frame and a load → the
@@ -288,11 +303,17 @@ class StiffnessStudy(Section):
     report: Optional[ReportSection] = F(None, "frame and load case",
                                         default_text="platform frame, no load")
     map: Optional[MapSection] = F(None, "a stiffness map", default_text="(no map)")
+    tolerance: Optional[HexapodToleranceSection] = F(
+        None, "manufacturing tolerances of the hexapod (with [hexapod])",
+        default_text="(none)")
 
     def check(self, path) -> None:
         """Exactly one of `[hexapod]` (with `[pose]`) and `[mechanism]` (with `[elastic]`),
         and the `[map]` keys of that kind."""
         hx, mech = self.hexapod is not None, self.mechanism is not None
+        if self.tolerance is not None and not hx:
+            raise StudyError(path, "tolerance", "tolerance studies are made of hexapods "
+                             "([hexapod]); a mechanism stiffness study has none yet")
         if hx and mech:
             raise StudyError(path, "mechanism", "a stiffness study gives either [hexapod] "
                              "(with [pose]) or [mechanism] (with [elastic]), not both")

@@ -20,6 +20,8 @@ beam_stiffness          6x6 end stiffness of a beam (Euler–Bernoulli, Timoshen
                         elastic links for of_mechanism's link_springs; its P-δ term under
                         an axial force: beam_geometric_stiffness
 design_leg_stiffness    convex (LMI) allocation of leg stiffness with cvxpy
+hexapod_tolerance       Monte Carlo manufacturing tolerances of the stiffness indices
+                        against the first-order prediction (stiffness.tolerance)
 report                  Markdown + CSV stiffness report
 StiffnessError          bad input (names the argument and the expected shape); its subclass
                         SingularPoseError: a singular pose (gives cond(P) or cond(K))
@@ -36,6 +38,7 @@ from .matrices import (blocks, from_blocks, rotational_compliance_eigenvalues, s
                        translational_eigenvalues)
 from .plot import plot_map
 from .report import report
+from .tolerance import HexapodTolerance, hexapod_tolerance
 from .sixvector import (compose_frames, from_moment_first, plucker, rotate_six, shift_twist,
                         shift_wrench, skew, to_moment_first, twist_transform,
                         twist_transform_inverse, wrench_transform, wrench_transform_inverse)
@@ -48,5 +51,5 @@ __all__ = [
     "translational_eigenvalues", "rotational_compliance_eigenvalues", "Hexapod",
     "StiffnessResult", "design_leg_stiffness", "report", "plot_map", "StiffnessError", "SingularPoseError",
     "SingularPoseWarning", "of_mechanism", "MechanismStiffness", "mechanism_map", "beam_stiffness",
-    "beam_compliance", "beam_geometric_stiffness",
+    "beam_compliance", "beam_geometric_stiffness", "hexapod_tolerance", "HexapodTolerance",
 ]

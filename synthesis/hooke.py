@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .binary import BinaryLink, _rot, _signed_angle, _task
+from .binary import BinaryLink, _cross, _rot, _signed_angle, _task
 from .errors import SynthesisError
 from .screw import Line
 from .spherical import _circle, _frame_arg, _trig_roots, sh_links, sp_links, sr_links
@@ -76,7 +76,7 @@ def _cubic_axes(L, a0, b0):
     def f(u):
         r2 = np.einsum("ji,nj->ni", L[1], u)
         r3 = np.einsum("ji,nj->ni", L[2], u)
-        return np.sum(u * np.cross(r2, r3), -1)
+        return np.sum(u * _cross(r2, r3), -1)
     bt, scale = _trig_roots(f, a0, b0, 3, 8)
     if scale == 0:
         raise SynthesisError("axis_azimuth: degenerate: every first axis on this great circle "
@@ -128,7 +128,7 @@ def u_directions(link_rotations) -> np.ndarray:
 
 
 def _cubics(a, L):
-    bb = np.cross(a, np.einsum("ji,...j->...i", L[1], a))
+    bb = _cross(a, np.einsum("ji,...j->...i", L[1], a))
     return np.stack([np.einsum("...i,ij,...j->...", a, L[2], bb),
                      np.einsum("...i,ij,...j->...", a, L[3], bb)], -1)
 
@@ -191,9 +191,9 @@ def _polish(a, L, iters=8):
         r = np.einsum("i,mij,j->m", a, L, b)
         if np.abs(r).max() < 1e-15:
             break
-        e1 = np.cross(a, [1.0, 0, 0] if abs(a[0]) < 0.9 else [0, 1.0, 0])
+        e1 = _cross(a, np.array([1.0, 0, 0]) if abs(a[0]) < 0.9 else np.array([0, 1.0, 0]))
         e1 /= np.linalg.norm(e1)
-        e2 = np.cross(a, e1)
+        e2 = _cross(a, e1)
         J = np.zeros((4, 2))
         h = 1e-7
         for k, e in enumerate((e1, e2)):
@@ -222,7 +222,7 @@ def _directions4(L):
     out = []
     for a in cands:
         # drop the base points: the eigenvectors of L₂ᵀ (real: its axis)
-        if np.linalg.norm(np.cross(a, np.einsum("ji,j->i", L[1], a))) < 1e-6:
+        if np.linalg.norm(_cross(a, np.einsum("ji,j->i", L[1], a))) < 1e-6:
             continue
         a, b = _polish(a, L)
         if a is None:
@@ -473,8 +473,8 @@ def uc_links(screws, *, centre, azimuth: float, frame=None,
         fj = np.einsum("nij,nj->ni", R, fb) + t
         vj = fj - On
         vj /= np.linalg.norm(vj, axis=1, keepdims=True)
-        Fr = np.stack([wj, vj, np.cross(wj, vj)], -1)          # (4, 3, 3)
-        F0 = np.stack([w, u2, np.cross(w, u2)], -1)
+        Fr = np.stack([wj, vj, _cross(wj, vj)], -1)          # (4, 3, 3)
+        F0 = np.stack([w, u2, _cross(w, u2)], -1)
         Lr = Fr @ F0.T
         M = np.swapaxes(Lr, -1, -2) @ R                         # body relative to link
         phi = _signed_angle(np.broadcast_to(u2, (n, 3)), M @ u2, w)

@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .binary import BinaryLink, _rot, _signed_angle, _task
+from .binary import BinaryLink, _cross, _rot, _signed_angle, _task
 from .errors import SynthesisError
 from .screw import Line
 from .validate import array, number, screws as _screws, unit
@@ -154,7 +154,7 @@ def _rs_parts(g, R, t):
     I = np.eye(3)
     r = np.einsum("mji,nj->nmi", R - I, g)                   # rows gᵀ (R_j − I)
     b = -np.einsum("mi,ni->nm", t, g)
-    c0, c1, c2 = np.cross(r[:, 1], r[:, 2]), np.cross(r[:, 2], r[:, 0]), np.cross(r[:, 0], r[:, 1])
+    c0, c1, c2 = _cross(r[:, 1], r[:, 2]), _cross(r[:, 2], r[:, 0]), _cross(r[:, 0], r[:, 1])
     D = np.sum(r[:, 0] * c0, -1)
     N = c0 * b[:, :1] + c1 * b[:, 1:2] + c2 * b[:, 2:3]
     Q = np.einsum("mij,nj->nmi", R - I, N) + t[None] * D[:, None, None]

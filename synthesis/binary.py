@@ -30,6 +30,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from functools import lru_cache
+
 import numpy as np
 
 from .errors import SynthesisError
@@ -437,15 +439,24 @@ def _fibonacci(n: int) -> np.ndarray:
     return np.stack([r * np.cos(phi), r * np.sin(phi), z], -1)
 
 
-def _local_minima(P: np.ndarray, f: np.ndarray, k: int = 8) -> np.ndarray:
-    """Indices of the points of ``P (n, 3)`` (unit vectors, ±P identified) whose value
-    ``f`` is no larger than at their ``k`` nearest neighbours."""
+@lru_cache(maxsize=8)
+def _fibonacci_neighbours(n: int, k: int):
+    """The Fibonacci grid of ``n`` directions (n, 3) and each point's ``k`` nearest
+    neighbours among ±grid (n, k) (indices into the doubled grid), built once per size
+    (read-only arrays)."""
     from scipy.spatial import cKDTree
-    both = np.concatenate([P, -P])
+    G = _fibonacci(n)
+    _, idx = cKDTree(np.concatenate([G, -G])).query(G, k + 1)
+    nbr = np.ascontiguousarray(idx[:, 1:])
+    G.flags.writeable = nbr.flags.writeable = False
+    return G, nbr
+
+
+def _local_minima(f: np.ndarray, nbr: np.ndarray) -> np.ndarray:
+    """Indices of the grid points whose value ``f`` (n,) is finite and no larger than at
+    their neighbours ``nbr`` (n, k) (indices into the doubled grid, ±g identified)."""
     fb = np.concatenate([f, f])
-    _, idx = cKDTree(both).query(P, k + 1)
-    ok = np.isfinite(f) & np.all(f[:, None] <= fb[idx[:, 1:]], 1)
-    return np.flatnonzero(ok)
+    return np.flatnonzero(np.isfinite(f) & np.all(f[:, None] <= fb[nbr], 1))
 
 
 def _tangent_batch(g0):
@@ -464,35 +475,54 @@ def _batched_lm(F, z0, iters: int = 80, h: float = 1e-7):
 
     ``F(z, rows)`` maps ``z (M, k)`` of the systems ``rows`` (indices into the batch) to
     residuals ``(M, r)`` (r ≥ k, NaN where undefined); the Jacobian is by central
-    differences.  Returns the final ``z`` and ``|F(z)|`` (N,)."""
+    differences, evaluated with each trial point in the same call (an accepted step
+    costs one call).  A system stops when its residual vanishes, when its damping runs
+    away, or when it is stuck away from a zero: stationary (the gradient Jᵀf below 1e-6
+    of |J| |f|: f orthogonal to the Jacobian's range, which a system approaching a zero
+    never is) or its cost lowered by less than 0.1 % over 10 iterations (a system in a
+    zero's basin loses orders of magnitude an iteration).  Returns the final ``z`` and
+    ``|F(z)|`` (N,)."""
     z = np.array(z0, float)
     N, k = z.shape
-    f = F(z, np.arange(N))
-    cost = np.where(np.all(np.isfinite(f), 1), np.sum(f * f, 1), np.inf)
-    lam = np.full(N, 1e-3)
     eye = np.eye(k)
-    for _ in range(iters):
+    D = np.concatenate([np.zeros((1, k)), h * eye, -h * eye])         # (2k + 1, k)
+
+    def evaluate(z, rows):
+        Fd = F((z[None] + D[:, None]).reshape(-1, k), np.tile(rows, 2 * k + 1))
+        Fd = Fd.reshape(2 * k + 1, len(rows), -1)
+        J = np.moveaxis((Fd[1:k + 1] - Fd[k + 1:]) / (2 * h), 0, -1)   # (M, r, k)
+        good = np.all(np.isfinite(Fd[0]), 1) & np.all(np.isfinite(J), (1, 2))
+        return Fd[0], J, np.where(good, np.sum(Fd[0] * Fd[0], 1), np.inf)
+
+    f, J, cost = evaluate(z, np.arange(N))
+    lam = np.full(N, 1e-3)
+    hist = []
+    for it in range(iters):
+        hist.append(cost.copy())
         active = np.isfinite(cost) & (cost > 1e-30) & (lam < 1e12)
+        if it >= 10:
+            active &= (cost < 0.999 * hist[-11]) | (cost <= 1e-20)
         if not np.any(active):
             break
         ia = np.flatnonzero(active)
-        za, fa = z[ia], f[ia]
-        # all 2k central-difference evaluations in one batched call (rows are independent)
-        D = np.concatenate([h * eye, -h * eye])                    # (2k, k)
-        Fd = F((za[None] + D[:, None]).reshape(-1, k), np.tile(ia, 2 * k))
-        Fd = Fd.reshape(2, k, len(ia), -1)
-        J = np.moveaxis((Fd[0] - Fd[1]) / (2 * h), 0, -1)          # (M, r, k)
-        JtJ = np.swapaxes(J, 1, 2) @ J
-        Jtf = np.einsum("nri,nr->ni", J, fa)
+        Ja, fa = J[ia], f[ia]
+        JtJ = np.swapaxes(Ja, 1, 2) @ Ja
+        Jtf = np.einsum("nri,nr->ni", Ja, fa)
         diag = np.einsum("nii->ni", JtJ)
+        stationary = (np.sqrt(np.sum(Jtf * Jtf, 1)) <= 1e-6 * np.sqrt(diag.sum(1) * cost[ia])) \
+            & (cost[ia] > 1e-20)
+        lam[ia[stationary]] = np.inf
         with np.errstate(all="ignore"):
-            step = np.linalg.solve(JtJ + lam[active, None, None] * (eye * (diag[:, None] + 1e-12)),
+            step = np.linalg.solve(JtJ + lam[ia, None, None] * (eye * (diag[:, None] + 1e-12)),
                                    -Jtf[..., None])[..., 0]
-        zn = za + np.nan_to_num(step)
-        fn = F(zn, ia)
-        cn = np.where(np.all(np.isfinite(fn), 1), np.sum(fn * fn, 1), np.inf)
-        better = cn < cost[active]
-        z[ia[better]], f[ia[better]], cost[ia[better]] = zn[better], fn[better], cn[better]
-        lam[ia[better]] = np.maximum(lam[ia[better]] / 5, 1e-12)
+        keep = ~stationary
+        ia, za = ia[keep], z[ia][keep] + np.nan_to_num(step[keep])
+        if not len(ia):
+            break
+        fn, Jn, cn = evaluate(za, ia)
+        better = cn < cost[ia]
+        b = ia[better]
+        z[b], f[b], J[b], cost[b] = za[better], fn[better], Jn[better], cn[better]
+        lam[b] = np.maximum(lam[b] / 5, 1e-12)
         lam[ia[~better]] *= 8
     return z, np.sqrt(cost)

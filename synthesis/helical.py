@@ -23,8 +23,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .binary import (BinaryLink, _angles, _batched_lm, _check_rotations, _cross, _fibonacci, _finish,
-                     _local_minima, _same, _system, _tangent_batch, _task)
+from .binary import (BinaryLink, _angles, _batched_lm, _check_rotations, _cross,
+                     _fibonacci_neighbours, _finish, _local_minima, _same, _system,
+                     _tangent_batch, _task)
 from .errors import SynthesisError
 from .validate import integer, number, screw as _screw, unit
 
@@ -95,12 +96,12 @@ def helical_links(s12, s13, fixed_pitch: float = 0.0, moving_pitch: float = 0.0,
     kinds = ("R" if pg == 0 else "H", "R" if pw == 0 else "H")
     pn = (pg / task.L, pw / task.L)
     R, t = task.R, task.t
-    G = _fibonacci(samples)
+    G, nbr = _fibonacci_neighbours(samples, 3)  # small neighbourhoods: close basins (measured)
     A, rhs, w, th, ph, basis, ok = _equations(G, R, t, ("H", "H"), pn)
     x, = _lstsq(A, rhs)
     merit = np.linalg.norm(np.einsum("nij,nj->ni", A, x) - rhs, axis=-1)
     merit[~ok] = np.inf
-    idx = _local_minima(G, merit, k=3)     # small neighbourhoods: close basins (measured)
+    idx = _local_minima(merit, nbr)
     gof = _tangent_batch(G[idx])
 
     def F(u, rows):                   # variable projection: the points solved for each g
@@ -109,11 +110,15 @@ def helical_links(s12, s13, fixed_pitch: float = 0.0, moving_pitch: float = 0.0,
         return np.einsum("nij,nj->ni", A, x) - rhs
 
     u, res = _batched_lm(F, np.zeros((len(idx), 2)))
+    conv = np.flatnonzero(res < 1e-9)
+    g = gof(u[conv], conv)
+    g *= np.where(g[:, 2:3] < 0, -1.0, 1.0)
+    g = g[~np.any(np.tril(np.abs(g @ g.T) > 1 - 1e-14, -1), 1)]   # starts met at one root
+    A, rhs, w, th, ph, (e1, e2, f1, f2), ok = _equations(g, R, t, ("H", "H"), pn)
     out: list[BinaryLink] = []
-    for k in np.flatnonzero(res < 1e-9):
-        g = gof(u[k:k + 1], [k])
-        A, rhs, *_ = _equations(g, R, t, ("H", "H"), pn)
-        link = _link(task, g[0], np.linalg.lstsq(A[0], rhs[0], rcond=None)[0], kinds, pn, R, t)
+    for k in range(len(g)):
+        link = _link(task, g[k], np.linalg.lstsq(A[k], rhs[k], rcond=None)[0], kinds, pn,
+                     (A[k], w[k], th[k], ph[k], e1[k], e2[k], f1[k], f2[k], ok[k]))
         if link is not None and link.residual <= tol and not any(_same(link, o, task.L) for o in out):
             out.append(link)
     out.sort(key=lambda lk: tuple(np.round(lk.fixed_axis.direction * np.sign(
@@ -130,16 +135,18 @@ def _lstsq(A, rhs):
     return (np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=0.0),)
 
 
-def _link(task, g, x, kinds, pn, R, t):
-    """The BinaryLink of a converged direction ``g`` and axis-point coordinates ``x``, or
-    None where the axes are not determined (degenerate equations)."""
-    A, rhs, w, th, ph, (e1, e2, f1, f2), ok = _equations(g[None], R, t, ("H", "H"), pn)
-    s = np.linalg.svd(A[0], compute_uv=False)
-    if not ok[0] or s[-1] < 1e-7 * s[0]:
+def _link(task, g, x, kinds, pn, eq):
+    """The BinaryLink of a converged direction ``g`` and axis-point coordinates ``x``
+    (``eq``: that direction's equations, moving direction, angles, bases and validity
+    from :func:`_equations`), or None where the axes are not determined (degenerate
+    equations)."""
+    A, w, th, ph, e1, e2, f1, f2, ok = eq
+    s = np.linalg.svd(A, compute_uv=False)
+    if not ok or s[-1] < 1e-7 * s[0]:
         return None
-    cg = x[0] * e1[0] + x[1] * e2[0]
-    cw = x[2] * f1[0] + x[3] * f2[0]
-    return _finish(task, kinds, pn, g, cg, w[0], cw, th[0], pn[0] * th[0], ph[0], pn[1] * ph[0], {})
+    cg = x[0] * e1 + x[1] * e2
+    cw = x[2] * f1 + x[3] * f2
+    return _finish(task, kinds, pn, g, cg, w, cw, th, pn[0] * th, ph, pn[1] * ph, {})
 
 
 def hh_links_free_pitch(s12, s13, fixed_direction) -> list[BinaryLink]:

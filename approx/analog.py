@@ -29,7 +29,8 @@ from numpy.polynomial.legendre import leggauss
 from scipy.integrate import quad
 
 __all__ = ["PiecewiseAnalog", "ApproxError", "TransferFunction", "interval_sigma",
-           "sigma_of_intervals", "as_real", "as_points", "as_knots", "as_count", "as_positive"]
+           "sigma_of_intervals", "as_real", "as_real_array", "as_points", "as_knots", "as_count",
+           "as_positive"]
 
 
 class ApproxError(ValueError):
@@ -58,9 +59,9 @@ def as_real(value, name: str) -> float:
     return v
 
 
-def as_points(x, name: str = "x") -> np.ndarray:
-    """``x`` as a float array of any shape with finite entries, or :class:`ApproxError`
-    naming ``name`` (non-numeric, complex or non-finite values)."""
+def as_real_array(x, name: str = "x") -> np.ndarray:
+    """``x`` as a float array of any shape, or :class:`ApproxError` naming ``name``
+    (non-numeric or complex values); finiteness is not checked."""
     try:
         arr = np.asarray(x)
     except (TypeError, ValueError, OverflowError) as e:     # ragged sequences, huge ints
@@ -69,10 +70,19 @@ def as_points(x, name: str = "x") -> np.ndarray:
     if arr.dtype.kind not in "iuf":
         raise ApproxError(f"{name}: expected real numbers (a float or an array), got dtype "
                           f"{arr.dtype} ({type(x).__name__})")
-    arr = arr.astype(float, copy=False)
+    return arr.astype(float, copy=False)
+
+
+def _not_finite(name, bad):
+    return ApproxError(f"{name}: contains non-finite values ({bad}); expected finite numbers")
+
+
+def as_points(x, name: str = "x") -> np.ndarray:
+    """``x`` as a float array of any shape with finite entries, or :class:`ApproxError`
+    naming ``name`` (non-numeric, complex or non-finite values)."""
+    arr = as_real_array(x, name)
     if not np.all(np.isfinite(arr)):
-        bad = arr[~np.isfinite(arr)].ravel()[0]
-        raise ApproxError(f"{name}: contains non-finite values ({bad}); expected finite numbers")
+        raise _not_finite(name, arr[~np.isfinite(arr)].ravel()[0])
     return arr
 
 
@@ -238,8 +248,73 @@ class TransferFunction(ABC):
         return psi * mass_moment * (psi * xdd + self.acceleration(x) * xd ** 2)
 
 
+class _Pieces:
+    """The evaluation shared by the piecewise surrogates: ``position``, ``velocity``,
+    ``acceleration`` and ``all`` through one compiled kernel (:mod:`approx.kernels`, built
+    on the first evaluation by :meth:`_make_pieces`), a Python float by its scalar entry.
+    Subclasses hold ``a``, ``b_end`` and ``extrapolate``."""
+
+    _pcs = None
+
+    def _make_pieces(self):
+        """The :class:`approx.kernels.Pieces` of F, or False where there is none."""
+        raise NotImplementedError
+
+    def _pieces(self):
+        if self._pcs is None:
+            self._pcs = self._make_pieces()
+        return self._pcs
+
+    def _range(self):
+        """The x accepted: [a, b], or every finite x when extrapolating."""
+        return (-np.inf, np.inf) if self.extrapolate else (self.a, self.b_end)
+
+    def _refuse(self, v):
+        """The error for a refused x = v (not finite, or outside the range)."""
+        if not np.isfinite(v):
+            return _not_finite("x", v)
+        return ApproxError(f"x = {float(v)!r} outside [{self.a}, {self.b_end}]; set "
+                           "extrapolate=True to evaluate beyond the range")
+
+    @staticmethod
+    def _scalar(x):
+        """x as a float when it is a plain Python or numpy float/int (not bool), else None."""
+        if type(x) in (float, int, np.float64):
+            v = float(x)
+            if v == v and v not in (np.inf, -np.inf):
+                return v
+        return None
+
+    def _eval(self, x, which):
+        v = self._scalar(x)
+        if v is not None and (self.extrapolate or self.a <= v <= self.b_end):
+            r = self._pieces().scalar(v)
+            return r if which is None else r[which]
+        x = as_real_array(x, "x")
+        out, bad = self._pieces()(x, which, *self._range())
+        if bad >= 0:
+            raise self._refuse(x.flat[bad])
+        return out
+
+    def position(self, x):
+        """F(x), vectorised over ``x`` of any shape (a float for a float)."""
+        return self._eval(x, 0)
+
+    def velocity(self, x):
+        """F'(x): the first analog."""
+        return self._eval(x, 1)
+
+    def acceleration(self, x):
+        """F''(x): the second (acceleration) analog."""
+        return self._eval(x, 2)
+
+    def all(self, x):
+        """``(F, F', F'')`` at x in one pass."""
+        return self._eval(x, None)
+
+
 @dataclass(repr=False)
-class PiecewiseAnalog(TransferFunction):
+class PiecewiseAnalog(_Pieces, TransferFunction):
     """A twice-integrated piecewise-linear acceleration analog.
 
     On interval i, ``[x_i, x_{i+1}]``, with the local coordinate ``t = x − x_i``:
@@ -373,42 +448,14 @@ class PiecewiseAnalog(TransferFunction):
         """Number of intervals."""
         return self.k.size
 
-    def _interval(self, x):
-        """``(t, i)``: the local coordinate ``x − x_i`` and the interval index of each x."""
-        x = as_points(x, "x")
-        lo, hi = self.knots[0], self.knots[-1]
-        if not self.extrapolate and x.size and (x.min() < lo or x.max() > hi):
-            bad = x[(x < lo) | (x > hi)].ravel()[0]
-            raise ApproxError(f"x = {float(bad)!r} outside [{lo}, {hi}]; set extrapolate=True to "
-                              "evaluate the end cubics beyond the range")
-        # interval i holds [x_i, x_{i+1}); the last interval is closed at b (and the end
-        # intervals extend beyond a and b when extrapolating)
-        i = np.searchsorted(self.knots[1:-1], x, side="right")
-        return x - np.take(self.knots, i), i
-
-    def position(self, x):
-        """F(x), vectorised over ``x`` of any shape (Horner in ``t = x − x_i``)."""
-        t, i = self._interval(x)
-        take = np.take
-        return (((take(self.k, i) / 6) * t + take(self.y, i) / 2) * t
-                + take(self.dfk, i)) * t + take(self.fk, i)
-
-    def velocity(self, x):
-        """F'(x): the first analog."""
-        t, i = self._interval(x)
-        return (np.take(self.k, i) / 2 * t + np.take(self.y, i)) * t + np.take(self.dfk, i)
-
-    def acceleration(self, x):
-        """F''(x): the second (acceleration) analog."""
-        t, i = self._interval(x)
-        return np.take(self.k, i) * t + np.take(self.y, i)
-
-    def all(self, x):
-        """``(F, F', F'')`` at x with one interval search."""
-        t, i = self._interval(x)
-        k, y, dfk = np.take(self.k, i), np.take(self.y, i), np.take(self.dfk, i)
-        return ((((k / 6) * t + y / 2) * t + dfk) * t + np.take(self.fk, i),
-                (k / 2 * t + y) * t + dfk, k * t + y)
+    def _make_pieces(self):
+        # interval i holds [x_i, x_{i+1}); the last one is closed at b (the end intervals
+        # extend beyond a and b when extrapolating)
+        from .kernels import Pieces
+        n = self.n
+        coef = np.stack([self.fk[:n], self.dfk[:n], np.asarray(self.y, float)[:n] / 2,
+                         np.asarray(self.k, float) / 6], 1)
+        return Pieces(self.knots[:-1], coef, inner=self.knots[1:-1])
 
     @property
     def table(self) -> pd.DataFrame:

@@ -20,11 +20,13 @@ from f'' alone.  With e = F − f, e(a) = e'(a) = 0, so
 the integrals by Gauss–Legendre quadrature (16 points on each piece, or on 32 equal
 pieces for the global form); ``max_d2F`` is the largest |e''| at those nodes.
 
-A Chebyshev form of 12 or more terms evaluates large batches (256 points or more) from
-Taylor polynomials of degree 7 about the centres of equal pieces of [a, b], built on the
-first such batch with the fewest pieces (a power of two, at most 1024) that agree with
-the series to 1e-14 of each output's largest value; a batch then costs about the same at
-any degree (Clenshaw's recurrence grows with it).  Points beyond [a, b] use the series.
+Every kind evaluates through one compiled kernel (:mod:`approx.kernels`): F, F′, F″ of
+a piecewise polynomial by Horner's scheme in one pass over the points, a Python float by
+the same kernel's scalar entry.  The Chebyshev form is evaluated inside [a, b] from
+Taylor polynomials of degree 7 about the centres of equal pieces, built on its first
+evaluation with the fewest pieces (a power of two, at most 1024) that agree with the
+series to 1e-14 of each output's largest value, so its cost does not grow with the
+degree; points beyond [a, b] use the series (Clenshaw's recurrence).
 
 :func:`choose` fits each kind at growing sizes and returns the cheapest one (fewest
 coefficients, or fastest evaluation) whose measured error meets a position or
@@ -32,15 +34,14 @@ drive-force tolerance, with the table it chose from.
 """
 from __future__ import annotations
 
-import bisect
 import time
 
 import numpy as np
 import pandas as pd
 from numpy.polynomial import chebyshev as C
 
-from .analog import (ApproxError, PiecewiseAnalog, TransferFunction, _error_estimate,
-                     as_count, as_knots, as_points, as_positive)
+from .analog import (ApproxError, PiecewiseAnalog, TransferFunction, _error_estimate, _Pieces,
+                     as_count, as_knots, as_points, as_positive, as_real_array)
 
 __all__ = ["SplineAnalog", "ChebyshevAnalog", "fit_spline", "fit_chebyshev", "choose",
            "KINDS", "MAX_DEGREE"]
@@ -49,11 +50,6 @@ __all__ = ["SplineAnalog", "ChebyshevAnalog", "fit_spline", "fit_chebyshev", "ch
 KINDS = ("linear", "spline", "chebyshev")
 #: Largest degree of the Chebyshev interpolant of f''
 MAX_DEGREE = 500
-
-# factors that turn F's ascending coefficients into those of F' and F'' (shifted by w)
-_FACT = [np.ones(6), np.r_[0.0, np.arange(1.0, 6.0)][:, None].ravel(),
-         np.array([0.0, 0.0, 2.0, 6.0, 12.0, 20.0])]
-
 
 def _clenshaw(u, c):
     """Chebyshev series with coefficient columns ``c`` (K, m) at ``u``: (m,) + u.shape, by
@@ -75,22 +71,19 @@ def _clenshaw(u, c):
     return tmp
 
 
-#: batches of at least this many points of a Chebyshev form of at least this many terms
-#: are evaluated from its Taylor pieces (below, Clenshaw's recurrence is as fast)
-_PW_MIN_POINTS, _PW_MIN_TERMS = 256, 12
 #: degree of the Taylor pieces, and the most pieces tried
 _PW_DEGREE, _PW_MAX_PIECES = 7, 1024
 
 
 def _taylor_pieces(c0, a, b):
     """The Chebyshev series ``c0`` of F on [a, b] as Taylor polynomials of degree
-    _PW_DEGREE about the centres of P equal pieces, P the fewest (a power of two) whose
-    F, F', F'' agree with the series to 1e-14 of each one's largest value on the range
-    (measured at nine points of every piece); False when no P ≤ _PW_MAX_PIECES does.
-
-    Returns ``(a, P/(b − a), centres (P,), rows (3D, P))``: the descending
-    coefficients of F, then of F', then of F'' (Horner in ``s = x − centre``)."""
+    _PW_DEGREE about the centres of P equal pieces (:class:`approx.kernels.Pieces`), P the
+    fewest (a power of two) whose F, F', F'' agree with the series to 1e-14 of each
+    one's largest value on the range (measured at nine points of every piece); False
+    when no P ≤ _PW_MAX_PIECES does."""
     import math
+
+    from .kernels import Pieces
     D = _PW_DEGREE
     half = 0.5 * (b - a)
     ders = [np.asarray(c0, float)]
@@ -103,48 +96,15 @@ def _taylor_pieces(c0, a, b):
         mid = a + h * (np.arange(P) + 0.5)
         u = (2 * mid - a - b) / (b - a)
         tay = np.array([C.chebval(u, d) for d in ders]) / fact[:, None]     # (D+1, P)
-        rows = []
-        for w in range(3):                       # F^(w) = Σ_j j!/(j−w)! c_j s^(j−w)
-            j = np.arange(w, D + 1)
-            k = fact[j] / fact[j - w]
-            rows.append((tay[w:] * k[:, None])[::-1])
-        rows = np.concatenate(rows)
-        pw = (a, P / (b - a), mid, rows)
-        s = np.linspace(-0.5, 0.5, 9) * h
-        xs = np.clip((mid[:, None] + s).ravel(), a, b)
-        got = _eval_pieces(pw, xs, None)
+        pcs = Pieces(mid, tay.T, lo=a, inv_h=P / (b - a))
+        xs = np.clip((mid[:, None] + np.linspace(-0.5, 0.5, 9) * h).ravel(), a, b)
+        got, _ = pcs(xs)
         u = (2 * xs - a - b) / (b - a)
-        ok = True
-        for w in range(3):
-            ref = C.chebval(u, ders[w])
-            if np.abs(got[w] - ref).max() > 1e-14 * max(np.abs(ref).max(), 1e-300):
-                ok = False
-                break
-        if ok:
-            return pw
+        if all(np.abs(got[w] - ref).max() <= 1e-14 * max(np.abs(ref).max(), 1e-300)
+               for w, ref in enumerate(C.chebval(u, ders[w]) for w in range(3))):
+            return pcs
         P *= 2
     return False
-
-
-def _eval_pieces(pw, x, which):
-    """F, F', F'' (or one of them) from Taylor pieces ``pw`` at x (within [a, b])."""
-    a, scale, mid, rows = pw
-    D = _PW_DEGREE
-    i = ((x - a) * scale).astype(np.intp)
-    np.clip(i, 0, mid.size - 1, out=i)
-    s = x - np.take(mid, i)
-    start = [0, D + 1, 2 * D + 1]
-    ws = (0, 1, 2) if which is None else (which,)
-    out = []
-    for w in ws:
-        lo, n = start[w], D + 1 - w
-        c = np.take(rows[lo:lo + n], i, axis=1)
-        r = c[0].copy()
-        for j in range(1, n):
-            r *= s
-            r += c[j]
-        out.append(r)
-    return tuple(out) if which is None else out[0]
 
 
 def _check_bool(v, name):
@@ -153,47 +113,14 @@ def _check_bool(v, name):
     return bool(v)
 
 
-class _Surrogate(TransferFunction):
-    """Shared parts: range, scalar fast path, ``all``, ``error``."""
+class _Surrogate(_Pieces, TransferFunction):
+    """Shared parts: range, evaluation (:class:`approx.analog._Pieces`), ``error``."""
 
     kind = ""
     a: float
     b_end: float
     extrapolate: bool
     error: dict
-
-    def _check(self, x):
-        x = as_points(x, "x")
-        if not self.extrapolate and x.size and (x.min() < self.a or x.max() > self.b_end):
-            bad = x[(x < self.a) | (x > self.b_end)].ravel()[0]
-            raise ApproxError(f"x = {float(bad)!r} outside [{self.a}, {self.b_end}]; set "
-                              "extrapolate=True to evaluate beyond the range")
-        return x
-
-    @staticmethod
-    def _scalar(x):
-        """x as a float when it is a plain Python or numpy float/int (not bool), else None."""
-        if type(x) in (float, int, np.float64):
-            v = float(x)
-            if v == v and v not in (np.inf, -np.inf):
-                return v
-        return None
-
-    def position(self, x):
-        """F(x), the shape of x (a float for a float)."""
-        return self._eval(x, 0)
-
-    def velocity(self, x):
-        """F'(x): the first analog."""
-        return self._eval(x, 1)
-
-    def acceleration(self, x):
-        """F''(x): the second (acceleration) analog."""
-        return self._eval(x, 2)
-
-    def all(self, x):
-        """``(F, F', F'')`` at x in one pass."""
-        return self._eval(x, None)
 
     def errors(self, f, df, d2f, samples: int = 2001) -> dict:
         """Largest |F − f|, |F' − f'|, |F'' − f''| over a uniform sample of [a, b]."""
@@ -226,17 +153,6 @@ class SplineAnalog(_Surrogate):
     def __init__(self, knots, coef, *, error=None, bc="not-a-knot", extrapolate=False):
         self.knots = np.asarray(knots, float)
         self.coef = np.asarray(coef, float)
-        deg = self.coef.shape[1] - 1
-        j = np.arange(deg + 1)
-        self._d = [self.coef, (self.coef * j)[:, 1:], (self.coef * j * (j - 1))[:, 2:]]
-        self._cols = np.ascontiguousarray(self.coef.T)
-        self._inner = self.knots[1:-1]
-        self._inner_list = self._inner.tolist()
-        self._knot_list = self.knots.tolist()
-        # per interval, the descending coefficients of F, F', F'' as Python floats (the
-        # scalar path: Horner without array calls)
-        self._rows = [tuple(self._d[w][i, ::-1].tolist() for w in range(3))
-                      for i in range(self.coef.shape[0])]
         self.a, self.b_end = float(self.knots[0]), float(self.knots[-1])
         self.error = error or {}
         self.bc, self.extrapolate = bc, extrapolate
@@ -259,32 +175,9 @@ class SplineAnalog(_Surrogate):
         return (f"SplineAnalog({self.n} intervals on [{self.a:.6g}, {self.b_end:.6g}], "
                 f"{self.bc}, bound |F − f| ≤ {self.error.get('bound_F', np.nan):.3g})")
 
-    def _eval(self, x, which):
-        v = self._scalar(x)
-        if v is not None and (self.extrapolate or self.a <= v <= self.b_end):
-            i = bisect.bisect_right(self._inner_list, v)
-            t = v - self._knot_list[i]
-            rows = self._rows[i]
-            out = []
-            for w in ((0, 1, 2) if which is None else (which,)):
-                r = 0.0
-                for cj in rows[w]:
-                    r = r * t + cj
-                out.append(r)
-            return tuple(out) if which is None else out[0]
-        x = self._check(x)
-        i = np.searchsorted(self._inner, x, side="right")
-        t = x - np.take(self.knots, i)
-        c = np.take(self._cols, i, axis=1)      # (6,) + x.shape: F's coefficients
-        out = []
-        for w in ((0, 1, 2) if which is None else (which,)):
-            f = _FACT[w]
-            deg = c.shape[0] - 1
-            r = c[deg] * f[deg]
-            for j in range(deg - 1, w - 1, -1):
-                r = r * t + (c[j] * f[j] if f[j] != 1 else c[j])
-            out.append(r)
-        return tuple(out) if which is None else out[0]
+    def _make_pieces(self):
+        from .kernels import Pieces
+        return Pieces(self.knots[:-1], self.coef, inner=self.knots[1:-1])
 
     @property
     def table(self) -> pd.DataFrame:
@@ -317,8 +210,6 @@ class ChebyshevAnalog(_Surrogate):
         self.extrapolate = extrapolate
         self._s, self._o = 2.0 / (self.b_end - self.a), (self.a + self.b_end) / (self.a - self.b_end)
         self._cols = [self.coef[:, k].tolist() for k in range(3)]
-        self._pw = None                  # the piecewise form for batches (built when first used)
-        self._pw_list = self._pw_mid = None
 
     @property
     def size(self) -> int:
@@ -333,43 +224,38 @@ class ChebyshevAnalog(_Surrogate):
         return (f"ChebyshevAnalog(degree {self.degree} for f'' on [{self.a:.6g}, "
                 f"{self.b_end:.6g}], bound |F − f| ≤ {self.error.get('bound_F', np.nan):.3g})")
 
+    def _make_pieces(self):
+        return _taylor_pieces(self.coef[:, 0], self.a, self.b_end)
+
     def _eval(self, x, which):
+        """The Taylor pieces inside [a, b]; the series itself (Clenshaw's recurrence) beyond
+        it, or where no pieces reproduce the series (a degree in the hundreds)."""
+        pcs = self._pieces()
         v = self._scalar(x)
-        if v is not None and self._pw_list is not None and self.a <= v <= self.b_end:
-            i = min(int((v - self.a) * self._pw[1]), len(self._pw_list) - 1)
-            t = v - self._pw_mid[i]
-            rows = self._pw_list[i]
-            out = []
-            for w in ((0, 1, 2) if which is None else (which,)):
-                r = 0.0
-                for cj in rows[w]:
-                    r = r * t + cj
-                out.append(r)
-            return tuple(out) if which is None else out[0]
-        if v is not None and (self.extrapolate or self.a <= v <= self.b_end):
+        if v is not None and self.a <= v <= self.b_end and pcs is not False:
+            r = pcs.scalar(v)
+            return r if which is None else r[which]
+        if v is not None and self.extrapolate:
             u = v * self._s + self._o
             u2 = 2 * u
             out = []
             for w in ((0, 1, 2) if which is None else (which,)):
                 c = self._cols[w]
                 b1 = b2 = 0.0
-                for cj in c[:0:-1]:             # Clenshaw
+                for cj in c[:0:-1]:
                     b1, b2 = cj + u2 * b1 - b2, b1
                 out.append(c[0] + u * b1 - b2)
             return tuple(out) if which is None else out[0]
-        x = self._check(x)
-        if x.size >= _PW_MIN_POINTS and self.coef.shape[0] >= _PW_MIN_TERMS:
-            if self._pw is None:
-                self._pw = _taylor_pieces(self.coef[:, 0], self.a, self.b_end)
-                if self._pw is not False:        # the scalar path uses the pieces too
-                    rows, D = self._pw[3], _PW_DEGREE
-                    cut = [0, D + 1, 2 * D + 1, 3 * D]
-                    self._pw_list = [tuple(rows[cut[w]:cut[w + 1], i].tolist()
-                                           for w in range(3)) for i in range(rows.shape[1])]
-                    self._pw_mid = self._pw[2].tolist()
-            if self._pw is not False and (not self.extrapolate or (
-                    x.min() >= self.a and x.max() <= self.b_end)):
-                return _eval_pieces(self._pw, x, which)
+        x = as_real_array(x, "x")
+        if pcs is not False:
+            out, bad = pcs(x, which, self.a, self.b_end)
+            if bad < 0:
+                return out
+            if not (self.extrapolate and np.isfinite(x.flat[bad])):
+                raise self._refuse(x.flat[bad])
+        x = as_points(x, "x")
+        if not self.extrapolate and x.size and (x.min() < self.a or x.max() > self.b_end):
+            raise self._refuse(x[(x < self.a) | (x > self.b_end)].ravel()[0])
         u = x * self._s + self._o
         if which is None:
             r = _clenshaw(u, self.coef)          # (3,) + x.shape

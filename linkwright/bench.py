@@ -23,6 +23,20 @@ def _timeit(fn, repeat=3):
     return best, out
 
 
+def first_call(code: str) -> tuple[float, float]:
+    """Seconds of the first run of ``code`` (Python source that sets ``t``, the seconds of
+    its own first call of a compiled kernel) in a fresh interpreter with an empty numba
+    cache, then again in another with that cache: ``(compile, cache load)``."""
+    import os
+    import subprocess
+    import tempfile
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        return tuple(float(subprocess.run([sys.executable, "-c", code + "\nprint(t)"], env=env,
+                                          capture_output=True, text=True, check=True)
+                           .stdout.split()[-1]) for _ in range(2))
+
+
 def _rssr_closed_newton(phi, psi, iters=50):
     """Vectorised Newton on the RSSR's one-unknown loop equation
     K(φ) cos ψ + L(φ) sin ψ = M(φ) (|B − A| = b, B on the rocker's circle), from ``psi``;
@@ -294,7 +308,12 @@ def bench_approx(quick: bool = False) -> list[str]:
     makers += [("least squares (knots of linear n=4)", 4,
                 lambda: fit_least_squares(*F, fit(*F, 0.0, 0.3, n=4).knots))]
     from approx.surrogate import _n_coef
+    t_compile, t_load = first_call(
+        "import time, numpy as np\nfrom approx.kernels import Pieces\n"
+        "p = Pieces([0.0], [[1.0, 2.0]], inner=[])\nt0 = time.perf_counter()\n"
+        "p(np.zeros(2)); p.scalar(0.5)\nt = time.perf_counter() - t0")
     for kind, size, make in makers:
+        make().all(x[:10]), make().all(0.1)      # kernels loaded before timing
         t_fit, an = _timeit(make)
         e = an.errors(*F)
         Q = an.force(q, qd, qdd, I3)
@@ -313,7 +332,10 @@ def bench_approx(quick: bool = False) -> list[str]:
              f"call; closure engine: {t_engine:.1e} s per point (timed on {xe.size} points), "
              f"{s_engine:.1e} s per scalar call.  γ from the seed's rule 1/(max f″ − min f″); "
              "size = intervals (linear, spline) or degree of the f″ interpolant (chebyshev); "
-             "bound = ∫(b − s)·abs(F″ − f″) ds, the surrogate's own error estimate.", ""]
+             "bound = ∫(b − s)·abs(F″ − f″) ds, the surrogate's own error estimate.  "
+             "Every kind evaluates through one compiled kernel (numba): its first call "
+             f"in a new installation compiles it ({t_compile:.2f} s), later processes load "
+             f"it from numba's cache ({1e3 * t_load:.0f} ms).", ""]
     return rows
 
 

@@ -201,7 +201,7 @@ def test_chebyshev_batches_from_taylor_pieces():
     for m in (12, 24, 48):
         c = fit_chebyshev(*CYL, degree=m)
         got = c.all(x)
-        assert c._pw is not False and c._pw[2].size <= 1024
+        assert c._pieces() is not False and c._pieces().origin.size <= 1024
         for w, name in enumerate(("position", "velocity", "acceleration")):
             ref = C.chebval(u, c.coef[:, w])
             assert np.abs(got[w] - ref).max() <= 1e-13 * np.abs(ref).max()

@@ -552,7 +552,7 @@ def _hs_residual(g, th, R, t, p):
     return np.einsum("nij,nj->ni", Q, np.einsum("nji,nj->ni", Q, rhs)) - rhs
 
 
-def _hs_core(R, t, a, b, p, nb: int = 24, nt: int = 10, steps: int = 3):
+def _hs_core(R, t, a, b, p, nb: int = 36, nt: int = 10, steps: int = 3):
     """HS links (normalised) on the circle (a, b) with pitch p ≠ 0.  Starting points: the
     RS links of the circle (exact, pitch 0) continued to pitch p in ``steps`` steps, and
     the local minima of the variable-projection misfit on a grid over the elevation β and
@@ -684,7 +684,7 @@ def hs_links(screws, pitch: float, azimuth: float, *, frame=None,
     and the axis point c_g, and the elevation β and the three angles θ_j ∈ (−π, π] are
     found from two sets of starting points refined by Levenberg–Marquardt: the RS links
     of the circle (all of them, exact) continued in the pitch from 0, and the local
-    minima of the misfit on a grid over (β, θ₂, θ₃, θ₄) (24 × 10³).  Not a proof of
+    minima of the misfit on a grid over (β, θ₂, θ₃, θ₄) (36 × 10³).  Not a proof of
     completeness (a solution born away from pitch 0 whose basin is narrower than the
     grid can be missed); pitch 0 returns :func:`rs_links_at` exactly.
 

@@ -50,8 +50,8 @@ def _parser():
              "approx": "1-DOF mechanism or closed form → piecewise-linear analog tables",
              "analyze": "mechanism and input range → sweep table, point paths, drive forces"}
     helps["run"] = "a study file of any kind: the command is read from its [study].command"
-    helps["draw"] = ("an analyze, synth or hexapod stiffness study → 3D drawings (PNG) and an "
-                     "offline animation (HTML) of its mechanism, best variants or hexapod")
+    helps["draw"] = ("an analyze, synth or stiffness study → 3D drawings (PNG) and an "
+                     "offline animation (HTML) of its mechanism, variants or hexapod")
     for name, text in helps.items():
         s = sub.add_parser(name, help=text, description=text + ". The study file is checked "
                            "against the schema first (`linkwright schema " +

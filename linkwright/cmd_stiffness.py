@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import warnings
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
@@ -495,8 +496,23 @@ def _of_mechanism(study, e, mech, pose, **kw):
         raise StudyError(study.path, key, msg) from None
 
 
-def run_mechanism(study: Study, out: Outputs, progress) -> dict:
-    """A stiffness study of a mechanism: ``[mechanism]`` and ``[elastic]``."""
+class MechanismStudy(NamedTuple):
+    """A mechanism stiffness study solved at its inputs (:func:`mechanism_of`)."""
+
+    mech: object
+    pose: object
+    res: object          #: MechanismStiffness at the pose (unloaded), in the report's frame
+    elastic: Study       #: the ``[elastic]`` section
+    kw: dict             #: the keywords of :func:`stiffness.of_mechanism`
+    point: np.ndarray
+    frame: str           #: "platform" or "base"
+    wrench: np.ndarray | None
+
+
+def mechanism_of(study: Study, progress=lambda msg: None) -> MechanismStudy:
+    """A mechanism stiffness study (``[mechanism]`` and ``[elastic]``) checked, its
+    mechanism solved at the inputs and its unloaded stiffness there (study errors: exit
+    2)."""
     from closure import ClosureError
     mech, e, platform, springs, locked, x, point = _mechanism_inputs(study)
     progress(f"solving the mechanism at inputs {fmt_list(x)}")
@@ -513,28 +529,38 @@ def run_mechanism(study: Study, out: Outputs, progress) -> dict:
         R, p = T[:3, :3].T, T[:3, :3] @ point + T[:3, 3]
     else:
         R, p = np.eye(3), np.zeros(3)
-    beams = link_springs(e, mech) or None
-    kw = dict(platform=platform, springs=springs, locked=locked, link_springs=beams,
-              frame=(R, p))
+    kw = dict(platform=platform, springs=springs, locked=locked,
+              link_springs=link_springs(e, mech) or None, frame=(R, p))
     res = _of_mechanism(study, e, mech, pose, **kw)
-    loaded = _of_mechanism(study, e, mech, pose, wrench=wrench, **kw) if wrench is not None \
-        else None
+    return MechanismStudy(mech, pose, res, e, kw, point, frame, wrench)
+
+
+def run_mechanism(study: Study, out: Outputs, progress) -> dict:
+    """A stiffness study of a mechanism: ``[mechanism]`` and ``[elastic]``."""
+    ms = mechanism_of(study, progress)
+    mech, pose, kw, wrench = ms.mech, ms.pose, ms.kw, ms.wrench
+    loaded = _of_mechanism(study, ms.elastic, mech, pose, wrench=wrench, **kw) \
+        if wrench is not None else None
     values = None
     msec = study.section("map", required=False)
     if msec:
-        values = _input_grid(msec, len(x))
-    title = study.section("study", required=False)
-    title = title.get("title", "str", "Mechanism stiffness report") if title else \
-        "Mechanism stiffness report"
+        values = _input_grid(msec, len(mech.input_labels()))
     rep, tables, summary = mechanism_report(
-        mech, pose, res, platform=platform, springs=springs, locked=locked, point=point,
-        link_springs=beams,
-        frame_name=frame, wrench=wrench, loaded=loaded, map_inputs=values, title=title,
-        source=f"Study: {study.path.name}.", progress=progress)
+        mech, pose, ms.res, platform=kw["platform"], springs=kw["springs"],
+        locked=kw["locked"], point=ms.point, link_springs=kw["link_springs"],
+        frame_name=ms.frame, wrench=wrench, loaded=loaded, map_inputs=values,
+        title=mechanism_title(study), source=f"Study: {study.path.name}.", progress=progress)
     for name, df in tables.items():
         out.add_csv(name, df)
     rep.add_to(out)
     return summary
+
+
+def mechanism_title(study: Study) -> str:
+    """The report's title: ``[study] title`` or a default."""
+    sec = study.section("study", required=False)
+    return sec.get("title", "str", "Mechanism stiffness report") if sec else \
+        "Mechanism stiffness report"
 
 
 def _input_grid(msec, n: int) -> np.ndarray:
@@ -741,16 +767,8 @@ def mechanism_report(mech, pose, res, *, platform: str, springs: dict, locked, p
         summary["deflection_rotation"] = quantity(d[3:], "rad")
         summary["loaded_change"] = quantity(change, DIMENSIONLESS)
     if figures:
-        from .draw import scene
-        scn = scene(mech, pose, title=f"{title} at the pose")
-        A = 0.3 * scn.size()
-        scn.arrows = {name: (np.stack([p, A * (R.T @ v)])[None], col) for name, v, col in
-                      (("weakest", V[:, 2], "#d62728"), ("stiffest", V[:, 0], "#2ca02c"))}
         rep.heading("Drawing")
-        rep.drawing("mechanism", scn,
-                    "The mechanism at the pose, joints drawn from the engine's joint frames; "
-                    "arrows at K's reference point along the weakest (red) and stiffest "
-                    "(green) translation directions.")
+        rep.drawing("mechanism", mechanism_scene_of(mech, pose, res, title), MECHANISM_CAPTION)
     if map_inputs is not None:
         from stiffness import mechanism_map
         if progress is not None:
@@ -769,6 +787,26 @@ def mechanism_report(mech, pose, res, *, platform: str, springs: dict, locked, p
         summary["map_free"] = int(mp.free.sum())
         summary["map_ct_max"] = quantity(float(good.ct_max.max()) if len(good) else None, "m/N")
     return rep, tables, summary
+
+
+#: the caption of a mechanism stiffness study's drawing (report and ``linkwright draw``)
+MECHANISM_CAPTION = ("The mechanism at the pose, joints drawn from the engine's joint "
+                     "frames; arrows at K's reference point along the weakest (red) and "
+                     "stiffest (green) translation directions.")
+
+
+def mechanism_scene_of(mech, pose, res, title: str):
+    """The drawing of a mechanism at its (one) pose with the weakest and stiffest
+    translation directions of ``res`` (unloaded) as arrows at K's reference point, a third
+    of the drawing's size long, in the base axes."""
+    from .draw import scene
+    _, V = _directions(res.C[0][:3, :3])                # ascending compliance
+    R, p = res.R[0], res.reference[0]
+    scn = scene(mech, pose, title=f"{title} at the pose")
+    A = 0.3 * scn.size()
+    scn.arrows = {name: (np.stack([p, A * (R.T @ v)])[None], col) for name, v, col in
+                  (("weakest", V[:, 2], "#d62728"), ("stiffest", V[:, 0], "#2ca02c"))}
+    return scn
 
 
 def _mechanism_map_section(rep, mp, labels, iu, figures=True):

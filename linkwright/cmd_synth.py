@@ -500,6 +500,36 @@ def _solution_count(df, mode) -> list[str]:
     return []
 
 
+def _drawings(rep: Report, ranked: pd.DataFrame, T, family: str) -> None:
+    """The report's drawing: the best drawable variant's still figure, and every regular
+    variant (at most :data:`~linkwright.cmd_draw.VIEWER`, the best-ranked) at the task
+    positions in the interactive view's variant selector."""
+    from .cmd_draw import VIEWER, regular_variants, variant_scenes
+    scenes, not_drawn = variant_scenes(ranked, T, family, best=VIEWER)
+    if not scenes:
+        return
+    v, scn, _ = scenes[0]
+    sphere = "sphere centre" in scn.paths
+    drawable = len(regular_variants(ranked)) - not_drawn
+    held = (f"all {len(scenes)} drawable regular variants" if len(scenes) == drawable else
+            f"the {len(scenes)} best-ranked of the {drawable} drawable regular variants "
+            f"(at most {VIEWER} are embedded)")
+    rep.heading("Drawing of the variants")
+    rep.drawing("variants", scn,
+                f"The figure: {scn.title}, driven by the engine to its joint values at "
+                f"the {len(T)} task positions: " + (
+                    "the sphere centre's reached positions as points, the body (free to "
+                    "turn about the sphere) at the given poses (triads)" if sphere else
+                    "the body's reached frames (solid triads) on the given ones (dotted), "
+                    "the body origin's positions as points")
+                + f"; earlier positions fainter. The interactive view holds {held}: choose "
+                "one with its variant selector, the slider steps through the task "
+                "positions."
+                + (f" {not_drawn} regular variant(s) are not drawn (two spherical joints, "
+                   "or joint values missing from the table)." if not_drawn else ""),
+                variants=[s for _, s, _ in scenes])
+
+
 def run(study: Study, out: Outputs, progress) -> dict:
     crit = study.section("criterion", required=False)
     kind = crit.get("kind", "str", "link_length", choices=CRITERIA) if crit else "link_length"
@@ -587,22 +617,7 @@ def run(study: Study, out: Outputs, progress) -> dict:
                          "x": "m", "y": "m", "z": "m"})
     assemblies = _assemblies(study, mode, ranked, screws, rep, out, progress)
     tolerance = _tolerance(study, best_rows, ranked, T, screws, rep, out, progress)
-    from .cmd_draw import variant_scenes
-    scenes, not_drawn = variant_scenes(ranked, np.stack(T), family, best=1)
-    for v, scn, _ in scenes:
-        rep.heading("Drawing of the best drawable variant")
-        sphere = "sphere centre" in scn.paths
-        rep.drawing(f"variant{v}", scn,
-                    f"Variant {v} driven by the engine to its joint values at the {len(T)} task "
-                    "positions: " + (
-                        "the sphere centre's reached positions as points, the body (free to "
-                        "turn about the sphere) at the given poses (triads)" if sphere else
-                        "the body's reached frames (solid triads) on the given ones (dotted), "
-                        "the body origin's positions as points")
-                    + "; earlier positions fainter."
-                    + (f" {not_drawn} better-ranked variant(s) with a spherical joint before "
-                       "the last joint are not drawn (its rotation is not in the table)."
-                       if not_drawn else ""))
+    _drawings(rep, ranked, np.stack(T), family)
     rep.add_to(out)
     best = best_rows.iloc[0] if len(best_rows) else None
     return {"command": "synth", "family": family, "variants": int(len(df)),

@@ -470,28 +470,44 @@ def scene_json(scn: Scene) -> dict:
             "view": list(_view(P)), "frames": frames}
 
 
-def html_animation(scn: Scene, *, limit: int = 120) -> str:
-    """A self-contained HTML page animating the scene (no network: inline script).
+def html_animation(scn, *, limit: int = 120, names=None, title: str | None = None) -> str:
+    """A self-contained HTML page animating a scene, or several (no network: inline script).
 
     A slider (and a play button) steps through the frames, subsampled to at most ``limit``;
-    drag rotates (orthographic projection), the wheel zooms.  The page reads
-    ``#frame=N`` from its address to start at frame N.
+    drag rotates (orthographic projection), the wheel zooms.  Given several scenes (e.g. a
+    synthesis's variants at the task positions) a selector chooses the scene shown; every
+    scene is embedded, only its frames are subsampled.  The page reads ``#frame=N`` (and
+    ``#frame=N&variant=K``) from its address to start at frame N (of scene K).
 
     Parameters
     ----------
-    scn : Scene
+    scn : Scene or list of Scene
     limit : int
-        Largest number of frames in the page.
+        Largest number of frames of a scene in the page.
+    names : list of str, optional
+        The selector's entry per scene (default: the scenes' titles).
+    title : str, optional
+        The page's title (default: the first scene's).
 
     Returns
     -------
     str
     """
-    if len(scn) == 0:
-        raise ValueError("scn: the scene has no frames (no closed pose to animate)")
-    data = json.dumps(scene_json(scn.take(subsample(len(scn), limit))), allow_nan=False)
-    data = data.replace("</", "<\\/")
-    title = (scn.title or "mechanism").replace("&", "&amp;").replace("<", "&lt;")
+    many = not isinstance(scn, Scene)
+    scenes = list(scn) if many else [scn]
+    if not scenes or any(len(s) == 0 for s in scenes):
+        raise ValueError("scn: a scene has no frames (no closed pose to animate)")
+    data = [scene_json(s.take(subsample(len(s), limit))) for s in scenes]
+    if many:
+        names = [s.title for s in scenes] if names is None else [str(n) for n in names]
+        if len(names) != len(scenes):
+            raise ValueError(f"names: expected {len(scenes)} names, one per scene, "
+                             f"got {len(names)}")
+        data = {"variants": data, "names": names}
+    else:
+        data = data[0]
+    data = json.dumps(data, allow_nan=False).replace("</", "<\\/")
+    title = (title or scenes[0].title or "mechanism").replace("&", "&amp;").replace("<", "&lt;")
     return _PAGE.replace("@TITLE@", title).replace("@DATA@", data)
 
 
@@ -502,9 +518,13 @@ body{font-family:sans-serif;margin:12px;color:#222}
 #view{border:1px solid #ccc;cursor:grab;touch-action:none;background:#fff}
 #bar{display:flex;gap:10px;align-items:center;margin:6px 0;max-width:720px}
 #slider{flex:1}
+#pick{margin:6px 0;max-width:720px;font-size:13px}
+#sub{color:#555;margin-left:8px}
 </style></head><body>
 <h3>@TITLE@</h3>
 <canvas id="view" width="720" height="540"></canvas>
+<div id="pick" hidden><label>variant <select id="variant"></select></label>
+<span id="sub"></span></div>
 <div id="bar"><button id="play">play</button><input id="slider" type="range" min="0" value="0">
 <span id="label"></span></div>
 <p style="font-size:12px;color:#666">drag: rotate, wheel: zoom; joints: R/H cylinder, P/C
@@ -513,7 +533,8 @@ slot, U cross, S ball; hatched: ground; dashed: point paths, dotted triads: give
 <script>
 (function(){
 "use strict";
-var S=JSON.parse(document.getElementById("scene-data").textContent);
+var D=JSON.parse(document.getElementById("scene-data").textContent);
+var ALL=D.variants||[D],S=ALL[0],vs=document.getElementById("variant");
 var cv=document.getElementById("view"),g=cv.getContext("2d");
 var sl=document.getElementById("slider"),lab=document.getElementById("label");
 var NF=S.frames.length;sl.max=NF-1;
@@ -569,6 +590,13 @@ function render(){
   g.fillText(n5,P1[0]+4,P1[1]-4);}
  lab.textContent="frame "+(cur+1)+" of "+NF+": "+F.label;}
 function setFrame(i){cur=Math.max(0,Math.min(NF-1,i|0));sl.value=cur;render();}
+function setVariant(k){var i=Math.max(0,Math.min(ALL.length-1,k|0));S=ALL[i];
+ NF=S.frames.length;sl.max=NF-1;vs.value=String(i);
+ document.getElementById("sub").textContent=D.names&&D.names[i]!==S.title?S.title:"";
+ setFrame(cur);}
+if(D.variants){document.getElementById("pick").hidden=false;D.names.forEach(function(n,i){
+ var o=document.createElement("option");o.value=String(i);o.textContent=n;vs.appendChild(o);});
+ vs.addEventListener("change",function(){setVariant(+vs.value);});}
 sl.addEventListener("input",function(){setFrame(+sl.value);});
 document.getElementById("play").addEventListener("click",function(){
  if(timer){clearInterval(timer);timer=null;this.textContent="play";return;}
@@ -580,7 +608,8 @@ cv.addEventListener("pointermove",function(e){if(!drag)return;yaw+=(e.clientX-dr
 cv.addEventListener("pointerup",function(){drag=null;});
 cv.addEventListener("wheel",function(e){e.preventDefault();zoom*=Math.exp(-e.deltaY*0.001);
  render();},{passive:false});
-var m=/frame=(\\d+)/.exec(location.hash);setFrame(m?+m[1]:0);
+var m=/frame=(\\d+)/.exec(location.hash),mv=/variant=(\\d+)/.exec(location.hash);
+cur=m?+m[1]:0;setVariant(mv?+mv[1]:0);
 })();
 </script></body></html>
 """

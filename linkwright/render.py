@@ -295,11 +295,14 @@ class Report:
         self.figures[name] = figure_png(fig)
         self.blocks.append(("f", name))
 
-    def drawing(self, name: str, scn, caption: str = "", *, frames: int = 120) -> None:
+    def drawing(self, name: str, scn, caption: str = "", *, frames: int = 120,
+                variants=None) -> None:
         """Add a drawing of a :class:`~linkwright.draw.Scene`: a still figure
         (``NAME.png``) and its offline animation (``NAME.html``: slider over the frames,
         drag to rotate), embedded in the HTML report and linked from the Markdown one.
-        Without matplotlib only the animation is added."""
+        Without matplotlib only the animation is added.  ``variants`` (a list of
+        scenes) puts those in the animation instead, with a selector of their titles; the
+        still figure stays ``scn``'s."""
         from .draw import draw, html_animation
         if caption:
             self.blocks.append(("p", caption))
@@ -310,7 +313,8 @@ class Report:
                 self.thumbnail = f"{name}.png"
         else:
             self.blocks.append(("p", PLOT_NOTE))
-        self.pages[f"{name}.html"] = html_animation(scn, limit=frames)
+        self.pages[f"{name}.html"] = html_animation(scn, limit=frames) if variants is None \
+            else html_animation(list(variants), limit=frames, title=self.title)
         self.blocks.append(("a", f"{name}.html"))
 
     @staticmethod

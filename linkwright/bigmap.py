@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-__all__ = ["MapSummary", "stiffness_map", "INDICES"]
+__all__ = ["MapSummary", "StudyMap", "stiffness_map", "map_from_study", "INDICES"]
 
 #: the map's indices summarised, and their histogram ranges (log10 of the value)
 INDICES = {"kt_min": (-2.0, 18.0), "kt_max": (-2.0, 18.0), "cr_max": (-18.0, 2.0),
@@ -191,3 +191,80 @@ def stiffness_map(hx, xs, ys, zs, rotation=(0.0, 0.0, 0.0), *, out=None, client=
             bar.close()
     poses, sing, q, worst = _merge(results)
     return MapSummary(poses, sing, q, worst, len(todo))
+
+
+#: the units of the summarised indices
+UNITS = {"kt_min": "N/m", "kt_max": "N/m", "cr_max": "rad/(N·m)", "cond_P": "1"}
+
+
+@dataclass
+class StudyMap:
+    """A blocked map run for a stiffness study (:func:`map_from_study`): its summary and
+    how it ran, and :meth:`report` for the study's report."""
+
+    summary: MapSummary
+    counts: tuple
+    rotation: np.ndarray          #: rotation vector of the platform (rad)
+    block: int
+    where: str
+    parts: str | None
+    singular_cond: float
+
+    def report(self, rep, tables: dict) -> dict:
+        """Add the map's section to ``rep`` and its tables (``map_quantiles.csv``,
+        ``map_worst.csv``) to ``tables``; return the JSON summary's map entries."""
+        from .render import fmt_num, fmt_q, quantity
+        s = self.summary
+        q = s.quantiles.copy()
+        q.insert(1, "unit", [UNITS[i] for i in q["index"]])
+        kt = q.set_index("index").loc["kt_min"]
+        rep.heading("Map over poses (in blocks)")
+        total = -(-s.poses // self.block)
+        ran = f"{s.blocks} of them in this run, the others" if s.blocks < total else ""
+        rows = f"in {self.parts}, one Parquet part per block" if self.parts else "not kept"
+        rep.text(f"{s.poses:,} poses ({' × '.join(map(str, self.counts))} positions in x, y, "
+                 f"z) at the platform rotation vector {fmt_q(np.degrees(self.rotation), 'deg')}, "
+                 f"computed {self.where} in {total} blocks of up to {self.block:,} poses"
+                 + (f" ({ran} found in the parts)" if ran else "") + f"; rows {rows}. "
+                 "Minima and maxima are exact; the quantiles come from logarithmic "
+                 "histograms of 1,000 bins per index (exact to one bin, 2.3 %).")
+        rep.table(q, "{:.5g}")
+        rep.findings(f"Over the map ({s.poses:,} poses): kt_min from {fmt_q(kt['min'], 'N/m')} "
+                     f"to {fmt_q(kt['max'], 'N/m')}, median {fmt_q(kt['q50'], 'N/m')}; "
+                     f"{s.singular:,} singular poses (cond(P) > {fmt_num(self.singular_cond)}).")
+        if len(s.worst):
+            rep.heading("Weakest poses of the map")
+            rep.table(s.worst, "{:.5g}")
+        tables["map_quantiles.csv"] = q
+        tables["map_worst.csv"] = s.worst
+        return {"map_poses": int(s.poses), "map_singular": int(s.singular),
+                "map_rotation": quantity(np.degrees(self.rotation), "deg"),
+                "map_kt_min": quantity(float(kt["min"]), "N/m"),
+                "map_kt_min_median": quantity(float(kt["q50"]), "N/m")}
+
+
+def map_from_study(msec, hx, T, axes, mode: str, progress=None) -> StudyMap:
+    """The ``[map]`` of a hexapod stiffness study run in blocks (``mode`` "dask" or
+    "serial") at the pose's rotation: keys ``block``, ``parts``, ``resume``; errors name
+    the key (a missing extra: ``map.blocked``; parts of another run: ``map.parts``)."""
+    from closure import log_so3
+    from .distributed import MissingExtraError
+    block = msec.get("block", "int", 200_000, low=1000)
+    parts = msec.get("parts", "str", None)
+    resume = msec.get("resume", "bool", False)
+    if resume and parts is None:
+        raise msec.error("resume", "needs `parts`: the folder whose parts are kept")
+    rot = log_so3(np.asarray(T, float)[:3, :3])
+    n = int(np.prod([len(a) for a in axes]))
+    if progress is not None:
+        progress(f"stiffness map over {n:,} poses in blocks of {block:,}")
+    try:
+        s = stiffness_map(hx, *axes, rot, out=parts, serial=mode == "serial", block=block,
+                          resume=resume, progress=progress)
+    except MissingExtraError as e:
+        raise msec.error("blocked", str(e)) from None
+    except FileExistsError as e:
+        raise msec.error("parts", str(e).replace("resume=True", "`resume = true`")) from None
+    where = "in this process" if mode == "serial" else "on Dask"
+    return StudyMap(s, tuple(len(a) for a in axes), rot, block, where, parts,
+                    float(hx.singular_cond))

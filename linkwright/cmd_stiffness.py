@@ -108,16 +108,17 @@ def _report(study: Study, out: Outputs, progress, hx: Hexapod, T) -> dict:
     if msec:
         xs, ys, zs = (_axis(msec, k) for k in ("x", "y", "z"))    # each count checked first
         counts = [1 if a is None else a.size for a in (xs, ys, zs)]
-        if np.prod(counts, dtype=float) > MAX_MAP_POSES:
-            raise msec.error("x", f"the map has {np.prod(counts, dtype=float):.3g} poses "
-                                  f"({' × '.join(map(str, counts))}); at most {MAX_MAP_POSES:,} "
-                                  "fit one report: use fewer points per axis, or run the map "
-                                  "in blocks on Dask with linkwright.bigmap.stiffness_map "
-                                  "(docs: studies-on-dask.md)")
         xs = xs if xs is not None else np.array([T[0, 3]])
         ys = ys if ys is not None else np.array([T[1, 3]])
         zs = zs if zs is not None else np.array([T[2, 3]])
-        positions = np.array(np.meshgrid(xs, ys, zs, indexing="ij")).reshape(3, -1).T
+        blocked = msec.get("blocked", "str", None, choices=("dask", "serial"))
+        if blocked is None and np.prod(counts, dtype=float) > MAX_MAP_POSES:
+            blocked = "dask"
+        if blocked is None:
+            positions = np.array(np.meshgrid(xs, ys, zs, indexing="ij")).reshape(3, -1).T
+        else:
+            from .bigmap import map_from_study
+            blocked_map = map_from_study(msec, hx, T, (xs, ys, zs), blocked, progress)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always", SingularPoseWarning)
         rep, tables, summary = stiffness_report(
@@ -130,6 +131,8 @@ def _report(study: Study, out: Outputs, progress, hx: Hexapod, T) -> dict:
     for w in caught:                                   # any other warning: passed on
         if not issubclass(w.category, SingularPoseWarning):
             warnings.warn(w.message, w.category, stacklevel=2)
+    if msec and positions is None:
+        summary.update(blocked_map.report(rep, tables))
     tsec = study.section("tolerance", required=False)
     if tsec is not None:
         summary.update(_tolerance_section(rep, tables, tsec, hx, T, progress))

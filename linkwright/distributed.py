@@ -35,7 +35,8 @@ def _need(module: str):
         return __import__(module)
     except ImportError:
         raise MissingExtraError(
-            f"linkwright grid needs {module}, which is not installed: "
+            f"studies on Dask (linkwright grid, blocked maps) need {module}, which is not "
+            "installed: "
             "pip install \"linkwright[dist]\" (dask[distributed] and pyarrow)") from None
 
 

@@ -250,8 +250,11 @@ class ReportSection(Section):
 
 class MapSection(Section):
     """A stiffness map.  A hexapod: over platform positions (the pose's rotation held); an
-    axis left out stays at the pose's coordinate.  A mechanism: over its inputs (`inputs`,
-    one range per input).  At most 2,000,000 poses in all."""
+    axis left out stays at the pose's coordinate; above 2,000,000 poses (or with `blocked`)
+    the map runs in blocks of poses on Dask (the scheduler at `DASK_SCHEDULER_ADDRESS`,
+    else a local cluster; needs `linkwright[dist]`) and the report holds its summary:
+    counts, exact minima and maxima, quantiles, the weakest poses.  A mechanism: over its
+    inputs (`inputs`, one range per input), at most 2,000,000 poses."""
 
     x: Optional[Range] = F(None, "x positions (hexapod): from, to and an integer count ≥ 1",
                            unit="m", example=[-0.15, 0.15, 13], default_text="the pose's x")
@@ -265,6 +268,19 @@ class MapSection(Section):
         example=[[-0.03, 0.03, 7], [0.0, 0.0, 1], [0.0, 0.0, 1]],
         default_text="(required for a mechanism's map)",
         kind="a list of [from, to, count], one per input")
+    blocked: Optional[Literal["dask", "serial"]] = F(
+        None, "run a hexapod's map in blocks and report its summary: on Dask, or one "
+        "block after another in this process", example="dask",
+        default_text="in blocks on Dask above 2,000,000 poses, else in memory (`map.csv`)")
+    block: Annotated[int, Field(ge=1000)] = F(200_000, "poses per block of a blocked map "
+                                              "(memory per worker about 1 KB per pose)",
+                                              example=200_000)
+    parts: Optional[Name] = F(None, "folder for the blocked map's rows, one Parquet part per "
+                              "block (relative to the current folder); a stopped run "
+                              "resumes from the parts found there with `resume`",
+                              example="hexapod-map-parts", default_text="(rows not kept)")
+    resume: bool = F(False, "keep the parts already in `parts` (the same map) and compute "
+                            "only the missing blocks", example=True)
 
 
 class HexapodToleranceSection(Section):
@@ -341,6 +357,10 @@ class StiffnessStudy(Section):
                 raise StudyError(path, "elastic.springs", "missing: give joint springs, "
                                  "elastic links ([[elastic.link]]) or both")
             if self.map is not None:
+                for k in ("blocked", "parts"):
+                    if getattr(self.map, k) is not None:
+                        raise StudyError(path, f"map.{k}", "a hexapod's key: a mechanism's "
+                                         "map runs in memory (at most 2,000,000 poses)")
                 for k in ("x", "y", "z"):
                     if getattr(self.map, k) is not None:
                         raise StudyError(path, f"map.{k}", "a hexapod's key: a mechanism's "

@@ -18,6 +18,7 @@ ClosureError         the loops could not be closed (carries the figures)
 Dynamics, Body       closure.dynamics: pseudo-inertias, inverse and forward dynamics
 ReducedDynamics      the same model with each loop replaced by transfer functions
                      (``Dynamics.reduced``; surrogates from approx.surrogate_dynamics)
+drive_tolerance      drive forces of mechanisms made with joint errors (closure.tolerance)
 """
 from .dynamics import Body, Dynamics, ReducedDynamics, pseudo_inertia
 from .errors import ClosureError, MechanismError
@@ -30,6 +31,7 @@ from .mechanism import Mechanism
 from .pose import REACHED, STATUS, Pose
 from .solver import SolverOptions, solve, sweep
 from .state import KinematicState
+from .tolerance import DriveTolerance, drive_tolerance
 
 __all__ = [
     "Mechanism", "Pose", "STATUS", "REACHED", "Joint", "JOINT_KINDS", "SolverOptions", "MechanismError",
@@ -37,5 +39,5 @@ __all__ = [
     "frame_from_points", "transform", "translation", "inverse", "exp_se3", "log_se3",
     "exp_so3", "log_so3", "rot_x", "rot_y", "rot_z", "rotation", "skew", "hat", "vee",
     "adjoint", "ad", "euler_zxz", "Dynamics", "ReducedDynamics", "Body", "pseudo_inertia", "cross",
-    "KinematicState", "carrier_twists", "link_twists",
+    "KinematicState", "carrier_twists", "link_twists", "DriveTolerance", "drive_tolerance",
 ]

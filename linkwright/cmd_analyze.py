@@ -7,7 +7,8 @@ import pandas as pd
 
 from closure import REACHED, ClosureError, point_analogs
 
-from .mechspec import build_dynamics, build_mechanism, coordinate_unit, sweep_values
+from .mechspec import (build_dynamics, build_mechanism, coordinate_unit, joint_frames,
+                       sweep_values)
 from .output import Outputs
 from .render import DIMENSIONLESS, Report, fmt_num, fmt_q, quantity
 from .study import Study
@@ -177,5 +178,56 @@ def run(study: Study, out: Outputs, progress) -> dict:
             ax.set_ylabel(f"drive {lab} ({du})")
         rep.figure("drive.png", plot_drive)
         summary["max_drive"] = quantity(peak, du)
+        tsec = study.section("tolerance", required=False)
+        if tsec is not None:
+            summary.update(_drive_tolerance(study, tsec, t, law, du, rep, out, progress))
     rep.add_to(out)
     return summary
+
+
+def _drive_tolerance(study: Study, tsec, t, law, du: str, rep: Report, out: Outputs,
+                     progress) -> dict:
+    """``[tolerance]``: the drive force of made mechanisms (:func:`closure.tolerance.
+    drive_tolerance`) — a report section, ``drive_tolerance.csv`` and the summary's
+    figures."""
+    from closure.tolerance import drive_tolerance
+    ms, ds = study.section("mechanism"), study.section("dynamics")
+    frames, kinds = joint_frames(ms)
+    sd = np.radians(tsec.get("direction_sigma_deg", "float", 0.0))
+    sp = tsec.get("position_sigma", "float", 0.0)
+    n = tsec.get("samples", "int", 1000)
+    progress(f"drive-force tolerances: {n} made mechanisms")
+    r = drive_tolerance(lambda fr: build_dynamics(ds, build_mechanism(ms, fr)), frames, kinds,
+                        t, tuple(v[:, None] for v in law), direction_sigma=sd,
+                        position_sigma=sp, samples=n, seed=tsec.get("seed", "int", 0))
+    out.add_csv("drive_tolerance.csv", r.summary)
+    rep.heading("Drive force tolerances")
+    rep.text(f"{n} mechanisms made with every joint frame tilted about its X and Y axes "
+             f"(σ = {fmt_q(np.degrees(sd), 'deg')} each) and shifted along them "
+             f"(σ = {fmt_q(sp, 'm')} each; a P joint tilted only, an S joint shifted along "
+             "X, Y, Z), driven through the same motion by the engine. 'linear': the "
+             "first-order changes J δp of the same samples (J = ∂F/∂p by central "
+             "differences of the engine); 'predicted': sqrt(diag(J Σ Jᵀ)).")
+    moved = n - r.failed
+    if r.failed:
+        rep.findings(f"{r.failed} of {n} made mechanisms cannot follow the motion"
+                     + (f" (the design is over-constrained: {', '.join(r.rigid[:6])}"
+                        f"{' …' if len(r.rigid) > 6 else ''} alone stop it)" if r.rigid else "")
+                     + ".")
+    figures = {"drive_tolerance_failed": r.failed}
+    if moved > 1:
+        pk = r.peak.iloc[0]
+        worst = r.summary.loc[r.summary.sd.idxmax()]
+        rep.findings(f"Peak drive {'torque' if du == 'N·m' else 'force'} "
+                     f"{fmt_q(pk.design, du)} by design; made: mean {fmt_q(pk['mean'], du)}, "
+                     f"sd {fmt_q(pk.sd, du)} (first order: {fmt_q(pk.mean_linear, du)}, "
+                     f"{fmt_q(pk.sd_linear, du)}); the drive varies most at t = "
+                     f"{fmt_q(worst.t, 's')} (sd {fmt_q(worst.sd, du)}, predicted "
+                     f"{fmt_q(worst.sd_predicted, du)}).")
+        show = r.summary.iloc[np.unique(np.linspace(0, len(r.summary) - 1, 25).astype(int))]
+        rep.table(show, "{:.5g}", units={"t": "s", "drive": du, "mean": du, "sd": du,
+                                         "mean_linear": du, "sd_linear": du,
+                                         "sd_predicted": du})
+        figures.update(peak_drive_sd=quantity(float(pk.sd), du),
+                       peak_drive_sd_linear=quantity(float(pk.sd_linear), du))
+    return figures

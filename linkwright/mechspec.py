@@ -8,12 +8,28 @@ from closure import JOINT_KINDS, Dynamics, Mechanism, MechanismError, frame_from
 
 from .study import Study
 
-__all__ = ["build_mechanism", "build_dynamics", "sweep_values"]
+__all__ = ["build_mechanism", "build_dynamics", "sweep_values", "joint_frames"]
 
 
-def build_mechanism(sec: Study) -> Mechanism:
+def joint_frames(sec: Study) -> tuple[dict, dict]:
+    """The joint frames ``{name: (4, 4)}`` (ground frame, assembly pose) and kinds
+    ``{name: kind}`` of ``[mechanism]``."""
+    frames, kinds = {}, {}
+    for j in sec.sections("joint"):
+        name = j.get("name", "str")
+        kinds[name] = j.get("kind", "str", choices=list(JOINT_KINDS))
+        try:
+            frames[name] = frame_from_points(j.get("origin", "vec3"), j.get("x_point", "vec3"),
+                                             j.get("z_point", "vec3"))
+        except MechanismError as e:
+            raise j.error("", str(e)) from None
+    return frames, kinds
+
+
+def build_mechanism(sec: Study, frames: dict | None = None) -> Mechanism:
     """``[mechanism]`` with ``links``, ``[[mechanism.joint]]`` (name, kind, links = [a, b],
-    origin, x_point, z_point, pitch for H) and ``[[mechanism.input]]`` (joint, index)."""
+    origin, x_point, z_point, pitch for H) and ``[[mechanism.input]]`` (joint, index);
+    ``frames`` (``{joint: (4, 4)}``) replaces the joints' frames (a made mechanism)."""
     m = Mechanism(sec.get("links", "strs"))
     for j in sec.sections("joint"):
         name = j.get("name", "str")
@@ -21,7 +37,7 @@ def build_mechanism(sec: Study) -> Mechanism:
         la, lb = _pair(j, "links")
         try:
             F = frame_from_points(j.get("origin", "vec3"), j.get("x_point", "vec3"),
-                                  j.get("z_point", "vec3"))
+                                  j.get("z_point", "vec3")) if frames is None else frames[name]
             pitch = j.get("pitch", "float") if kind == "H" else None
             m.add_joint(name, kind, la, lb, at=F, pitch=pitch)
         except MechanismError as e:

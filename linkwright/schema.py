@@ -548,10 +548,28 @@ class DynamicsSection(Section):
     spring: Optional[list[SpringSection]] = F(None, "joint springs", default_text="(none)")
 
 
+class DriveToleranceSection(Section):
+    """Manufacturing tolerances of the mechanism's drive force (with `[dynamics]`): every
+    joint frame tilted about its X and Y axes and shifted along them at random (a P joint
+    tilted only, an S joint shifted along X, Y and Z), each made mechanism driven through
+    the same motion, and the drive force's distribution set beside its first-order
+    prediction (`drive_tolerance.csv`).  A made mechanism that cannot move (an
+    over-constrained design, e.g. a planar linkage with tilted axes) is counted, not
+    sampled."""
+
+    direction_sigma_deg: Annotated[Number, Field(ge=0)] = F(
+        0.0, "standard deviation of each tilt of every joint frame", unit="deg", example=0.05)
+    position_sigma: Annotated[Number, Field(ge=0)] = F(
+        0.0, "standard deviation of each shift of every joint frame", unit="m", example=1e-4)
+    samples: Annotated[int, Field(ge=10, le=1_000_000)] = F(1000, "Monte Carlo samples",
+                                                            example=1000)
+    seed: Annotated[int, Field(ge=0)] = F(0, "seed of the samples", example=1)
+
+
 class AnalyzeStudy(Section):
     """`linkwright analyze`: a mechanism and an input range → the sweep table with point
-    paths and analogs and, with `[dynamics]`, the drive force (`sweep.csv`, `drive.csv`,
-    `report.md`, `report.html`)."""
+    paths and analogs and, with `[dynamics]`, the drive force and its tolerances
+    (`sweep.csv`, `drive.csv`, `drive_tolerance.csv`, `report.md`, `report.html`)."""
 
     study: Optional[StudySection] = F(None, "what the file is", default_text="(none)")
     mechanism: MechanismSection = F(doc="the mechanism")
@@ -559,6 +577,19 @@ class AnalyzeStudy(Section):
     point: Optional[list[PointSection]] = F(None, "tracked points", default_text="(none)")
     dynamics: Optional[DynamicsSection] = F(None, "inverse dynamics",
                                             default_text="(kinematics only)")
+    tolerance: Optional[DriveToleranceSection] = F(
+        None, "manufacturing tolerances of the drive force (with [dynamics])",
+        default_text="(none)")
+
+    def check(self, path) -> None:
+        """`[tolerance]` needs `[dynamics]` and at least one nonzero standard deviation."""
+        if self.tolerance is not None:
+            if self.dynamics is None:
+                raise StudyError(path, "tolerance", "drive-force tolerances need [dynamics] "
+                                 "(the masses and the motion's duration)")
+            if self.tolerance.direction_sigma_deg == 0 and self.tolerance.position_sigma == 0:
+                raise StudyError(path, "tolerance.position_sigma", "give position_sigma or "
+                                 "direction_sigma_deg > 0")
 
 
 # --------------------------------------------------------------------------- approx

@@ -17,17 +17,6 @@ from .validate import (ROTATION_TOL, as_array, broadcast, first_bad, number, poi
 
 __all__ = ["Hexapod", "StiffnessResult"]
 
-#: the unique products u_a u_b of a leg direction (a ≤ b)
-_PAIRS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
-_LAST_ROW = np.array([0.0, 0.0, 0.0, 1.0])
-# rotation check on the rows (T00 … T23): products of entries _CHK_A × _CHK_B, combined
-_CHK_A = np.array([0, 1, 2, 4, 5, 6, 0, 1, 2, 1, 2, 0, 2, 0, 1])
-_CHK_B = np.array([0, 1, 2, 4, 5, 6, 4, 5, 6, 6, 4, 5, 5, 6, 4])
-_CHK_SEL = np.zeros((6, 18))
-_CHK_SEL[0, 0:3] = _CHK_SEL[1, 3:6] = _CHK_SEL[2, 6:9] = 1.0
-for _k in range(3):
-    _CHK_SEL[3 + _k, [9 + _k, 12 + _k, 15 + _k]] = (1.0, -1.0, -1.0)
-_CHK_OFF = np.array([1.0, 1.0, 0.0, 0.0, 0.0, 0.0])[:, None]
 #: cond(P) from the Gram matrix's eigenvalues up to this value (relative error about
 #: cond² · ε there, below 1e-7); above it, from singular values
 GRAM_COND_LIMIT = 1e4
@@ -113,7 +102,6 @@ class Hexapod:
         leg stiffness, or all attachment points at the origin.
     """
 
-    _BLOCK = 4096
     #: a leg shorter than this fraction of the model's size has no direction
     _ZERO_LEG = 1e-12
 
@@ -159,9 +147,13 @@ class Hexapod:
         short = L <= self._ZERO_LEG * self.size
         if np.any(short):
             i = first_bad(short)
-            raise StiffnessError(f"pose: leg {i[-1] + 1} has zero length ({float(L[i]):.1e} m, "
-                                 f"model size {self.size:.3g} m): its attachment points "
-                                 "coincide" + (f" (pose index {i[:-1]})" if len(i) > 1 else ""))
+            self._zero_length(i, float(L[i]))
+
+    def _zero_length(self, i, length):
+        """Raise for leg ``i[-1]`` of pose ``i[:-1]``, of ``length`` (m)."""
+        raise StiffnessError(f"pose: leg {i[-1] + 1} has zero length ({length:.1e} m, "
+                             f"model size {self.size:.3g} m): its attachment points "
+                             "coincide" + (f" (pose index {i[:-1]})" if len(i) > 1 else ""))
 
     def platform_points_world(self, pose) -> np.ndarray:
         """Platform attachment points in the base frame ``(..., n, 3)``."""
@@ -180,7 +172,8 @@ class Hexapod:
         return self._P(self._pose(pose))
 
     def _leg_matrix(self, T) -> np.ndarray:
-        """P for a checked batch ``(B, 4, 4)`` (the hot path of maps)."""
+        """P for a checked batch ``(B, 4, 4)`` (the pose methods; batches and maps take the
+        compiled kernels of :mod:`stiffness.kernels`)."""
         B = T.shape[0]
         Tc = np.ascontiguousarray(T[:, :3, :].transpose(1, 2, 0))        # (3, 4, B)
         p = self.platform
@@ -557,7 +550,7 @@ class Hexapod:
         T[:, :3, :3] = exp_so3(rv)[ir]
         T[:, :3, 3] = pos[ip]
         T[:, 3, 3] = 1.0
-        K, c = self._batch_base(T, True)
+        K, c = self._kernel_batch(T, False, True)
         values[:, 0:3] = pos[ip]
         values[:, 3:6] = rv[ir]
         # the translational block of K and the rotational block of C keep their eigenvalues
@@ -583,149 +576,82 @@ class Hexapod:
         return df
 
     def stiffness_batch(self, T, frame=None, cond: bool = True):
-        """K ``(B, 6, 6)`` and cond(P) ``(B,)`` for a batch of poses, no warnings
-        (the caller flags singular rows).  ``frame``: None (base origin) or "platform".
-        ``cond=False`` skips the condition numbers (cond is then None).
+        """Unloaded stiffness and cond(P) of a batch of poses, without warnings (the caller
+        flags singular rows).
+
+        Parameters
+        ----------
+        T : array_like, shape (B, 4, 4)
+            Platform transforms in the base frame (translations m), checked.
+        frame : None or "platform"
+            K about the base origin in base axes (None), or about the platform origin in
+            the platform's axes.
+        cond : bool
+            Also return cond(P) (else ``None`` in its place).
+
+        Returns
+        -------
+        K : numpy.ndarray, shape (B, 6, 6)
+            ``P diag(k) Pᵀ`` (blocks N/m, N/rad, N·m/rad).
+        cond : numpy.ndarray, shape (B,), or None
+            Condition number of the dimensionless leg matrix (see :meth:`cond_P`).
+
+        Raises
+        ------
+        StiffnessError
+            A transform that is not rigid (naming its index), a leg of zero length, a
+            ``frame`` other than None or "platform", or a ``cond`` that is not a bool.
 
         Notes
         -----
-        About the base origin, K is linear in the legs' direction products ``u uᵀ`` (the
-        moment ``m = b × u`` of a leg is a constant matrix times u), so each block of poses
-        costs one matrix product ``(B, 6n) @ (6n, 36)`` after the legs' directions, with the
-        checks of the transforms fused into the same pass.  cond(P) is taken from the
-        eigenvalues of the dimensionless Gram matrix ``P Pᵀ`` (``cond = sqrt(λmax/λmin)``),
-        recomputed by singular values where it exceeds :data:`GRAM_COND_LIMIT` (squaring the
-        condition would lose its digits there).
+        Evaluated by the compiled kernels of :mod:`stiffness.kernels` (one pass over the
+        poses: transform checks, legs, unit vectors, moments and ``Σ k w wᵀ`` over the legs'
+        lines ``w = (u, m)``).  cond(P) is taken from the eigenvalues of the dimensionless
+        Gram matrix ``P Pᵀ`` (``cond = sqrt(λmax/λmin)``, cyclic Jacobi), recomputed by
+        singular values where it exceeds :data:`GRAM_COND_LIMIT` (squaring the condition
+        would lose its digits there).  The first call in a new installation compiles the
+        kernels (a few seconds); later processes load them from numba's cache.
         """
-        if (type(T) is np.ndarray and T.dtype == np.float64 and T.ndim == 3
-                and T.shape[1:] == (4, 4) and frame is None):
-            if not isinstance(cond, (bool, np.bool_)):
-                raise StiffnessError(f"cond: expected True or False, got {type(cond).__name__}")
-            return self._batch_base(T, cond)
-        T = transform(T, "T")
+        fast = (type(T) is np.ndarray and T.dtype == np.float64 and T.ndim == 3
+                and T.shape[1:] == (4, 4))           # else checked here, then by the kernel
+        if not fast:
+            T = transform(T, "T")
         if not isinstance(cond, (bool, np.bool_)):
             raise StiffnessError(f"cond: expected True or False, got {type(cond).__name__}")
         if T.ndim != 3:
             raise StiffnessError(f"T: expected a batch of poses (B, 4, 4), got shape {T.shape}")
         if not (frame is None or isinstance(frame, str) and frame == "platform"):
             raise StiffnessError(f"frame: expected None or 'platform' for a batch, got {frame!r}")
-        B = T.shape[0]
-        K = np.empty((B, 6, 6))
-        c = np.empty(B) if cond else None
-        # cache blocking: the temporaries of a block stay in cache (same arithmetic)
-        for i in range(0, B, self._BLOCK):
-            sl = slice(i, i + self._BLOCK)
-            K[sl], ci = self._stiffness_block(T[sl], frame, cond)
-            if cond:
-                c[sl] = ci
-        return K, c
+        return self._kernel_batch(T, frame is not None, bool(cond))
 
-    # ------------------------------------------------------- fast batched kernel
-    #: poses per block of the fused kernel (its temporaries stay in cache)
-    _FAST_BLOCK = 1024
-
-    def _kernel_maps(self):
-        """``(Md (3n, 13), L (6n, 36))``: leg vectors ``d = R p + t − b`` from the rows
-        ``(T00 … T23, 1)`` of a pose, and K's 36 entries from the products ``u_a u_b``
-        (rows pair-major: ``q n + i`` for pair q of leg i)."""
-        cached = getattr(self, "_maps", None)
-        if cached is not None:
-            return cached
-        n = self.base.shape[0]
-        Md = np.zeros((3 * n, 13))
-        for r in range(3):
-            Md[r * n:(r + 1) * n, 4 * r:4 * r + 3] = self.platform
-            Md[r * n:(r + 1) * n, 4 * r + 3] = 1.0
-            Md[r * n:(r + 1) * n, 12] = -self.base[:, r]
-        L = np.zeros((6 * n, 36))
-        for q, (a, b) in enumerate(_PAIRS):
-            E = np.zeros((3, 3))
-            E[a, b] = E[b, a] = 1.0
-            for i in range(n):
-                G = np.vstack([np.eye(3), skew(self.base[i])])   # (u, b × u) = G u
-                L[q * n + i] = (self.k[i] * G @ E @ G.T).ravel()
-        self._maps = (Md, L)
-        return self._maps
-
-    def _batch_base(self, T, cond):
-        """K about the base origin (and cond(P)) of a float64 batch ``(B, 4, 4)``, the
-        transforms checked on the way (an invalid one raises as :func:`transform` does)."""
-        B, n = T.shape[0], self.base.shape[0]
-        Md, Lk = self._kernel_maps()
-        K = np.empty((B, 6, 6))
-        c = np.empty(B) if cond else None
-        Kf = K.reshape(B, 36)
-        Tf = T.reshape(B, 16)
-        blk = max(1, min(self._FAST_BLOCK, B))
-        X = np.empty((13, blk))
-        X[12] = 1.0
-        D = np.empty((3 * n, blk))
-        U = np.empty((6, n, blk))
-        Z = np.empty((18, blk))
-        tol = ROTATION_TOL
-        zero2 = (self._ZERO_LEG * self.size) ** 2
-        for s in range(0, B, blk):
-            m = min(B, s + blk) - s
-            Xb, Db, Ub = X[:, :m], D[:, :m], U[:, :, :m]
-            Xb[:12] = Tf[s:s + m, :12].T
-            # the transforms: finite, last row (0, 0, 0, 1), rows orthonormal, right-handed
-            # (r0·r0 − 1, r1·r1 − 1, r0·r1, r0 × r1 − r2 from 15 products and one product
-            # by a constant matrix)
-            Zb = Z[:, :m]
-            np.multiply(Xb[_CHK_A], Xb[_CHK_B], out=Zb[:15])
-            Zb[15:] = Xb[8:11]
-            E = _CHK_SEL @ Zb
-            E -= _CHK_OFF
-            if not (np.abs(E).max() <= tol and np.abs(Tf[s:s + m, 12:] - _LAST_ROW).max() <= tol
-                    and np.isfinite(Xb[3:12:4]).all()):
-                transform(T, "T")                        # raises with the pose's index
-            np.matmul(Md, Xb, out=Db)
-            d = Db.reshape(3, n, m)
-            L2 = d[0] * d[0]
-            L2 += d[1] * d[1]
-            L2 += d[2] * d[2]
-            if L2.min() <= zero2:
-                self._leg_matrix(T)                      # raises with the pose's index
-            inv = 1.0 / L2
-            for q, (a, b) in enumerate(_PAIRS):
-                np.multiply(d[a], d[b], out=Ub[q])
-                Ub[q] *= inv
-            np.matmul(Ub.reshape(6 * n, m).T, Lk, out=Kf[s:s + m])
-            if cond:
-                c[s:s + m] = self._cond_fast(d, inv, T[s:s + m])
-        return K, c
-
-    def _cond_fast(self, d, inv, T):
-        """cond(P) of a block from its leg vectors ``d (3, n, m)``: eigenvalues of the
-        dimensionless Gram matrix, singular values where it is ill conditioned."""
-        u = d * np.sqrt(inv)                                  # (3, n, m)
-        q = self.platform - self._centroid
-        R = T[:, :3, :3]
-        rq = np.einsum("mij,nj->imn", R, q)                   # (3, m, n) R (p − c)
-        Ps = np.empty((T.shape[0], 6, d.shape[1]))
-        ut = u.transpose(0, 2, 1)                             # (3, m, n)
-        Ps[:, :3] = ut.transpose(1, 0, 2)
-        Ps[:, 3] = (rq[1] * ut[2] - rq[2] * ut[1]) / self.radius
-        Ps[:, 4] = (rq[2] * ut[0] - rq[0] * ut[2]) / self.radius
-        Ps[:, 5] = (rq[0] * ut[1] - rq[1] * ut[0]) / self.radius
-        w = np.linalg.eigvalsh(Ps @ np.swapaxes(Ps, 1, 2))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            c = np.sqrt(w[:, -1] / w[:, 0])
+    def _kernel_batch(self, T, platform_frame: bool, cond: bool):
+        """K ``(B, 6, 6)`` and cond(P) ``(B,)`` (or None) of a float64 batch ``(B, 4, 4)`` by
+        the compiled kernels, the transforms checked on the way (an invalid one raises as
+        :func:`transform` does, a leg of zero length as :meth:`legs` does).  K about the
+        base origin, or about the platform origin in its axes with ``platform_frame``."""
+        from .kernels import cond_kernel, scaled_leg_matrices, stiffness_kernel
+        T = np.ascontiguousarray(T, dtype=np.float64)
+        base, plat = np.ascontiguousarray(self.base), np.ascontiguousarray(self.platform)
+        K = np.empty((T.shape[0], 6, 6))
+        pose, leg, length = stiffness_kernel(T, base, plat, np.ascontiguousarray(self.k),
+                                             platform_frame, ROTATION_TOL,
+                                             self._ZERO_LEG * self.size, K)
+        if pose >= 0:
+            transform(T, "T")                    # raises with the first bad pose's index
+            if leg >= 0:
+                self._zero_length((pose, leg), length)
+            raise StiffnessError(f"T rotation: not a proper rotation at index ({pose},) "
+                                 f"(tolerance {ROTATION_TOL:.0e})")
+        if not cond:
+            return K, None
+        c = np.empty(T.shape[0])
+        centroid = np.ascontiguousarray(self._centroid)
+        cond_kernel(T, base, plat, centroid, self.radius, c)
         bad = ~(c <= GRAM_COND_LIMIT)
         if bad.any():
-            sv = np.linalg.svd(Ps[bad], compute_uv=False)
+            Ps = np.empty((int(bad.sum()), 6, base.shape[0]))
+            scaled_leg_matrices(T[bad], base, plat, centroid, self.radius, Ps)
+            sv = np.linalg.svd(Ps, compute_uv=False)
             with np.errstate(divide="ignore"):
                 c[bad] = np.where(sv[:, -1] > 0, sv[:, 0] / sv[:, -1], np.inf)
-        return c
-
-    def _stiffness_block(self, T, frame, cond):
-        P = self._leg_matrix(T)
-        c = self._cond(P, T) if cond else None
-        if frame == "platform":
-            # shift the Plücker moments to the platform origin, rotate into its axes
-            Rt = np.swapaxes(T[:, :3, :3], -1, -2)
-            o = T[:, None, :3, 3]
-            n = np.swapaxes(P[:, :3], -1, -2)
-            m = np.swapaxes(P[:, 3:], -1, -2) - np.cross(o, n)
-            P = np.concatenate([Rt @ np.swapaxes(n, -1, -2), Rt @ np.swapaxes(m, -1, -2)], 1)
-        return _congruence(P, self.k), c
+        return K, c

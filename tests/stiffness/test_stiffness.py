@@ -307,13 +307,23 @@ def test_plot_map_writes_png(tmp_path):
 
 
 def test_blocked_batch_equals_unblocked():
+    """A pose's K and cond(P) do not depend on the batch it comes in (the kernels work on
+    groups of LANES poses): whole batch, pieces across the groups and one by one agree
+    bit for bit."""
+    from stiffness.kernels import LANES
     hx = general_hexapod()
+    n = 2 * LANES + 5
     T = np.array([pose(rng.normal(scale=0.1, size=3), [0, 0, 0.7] + rng.normal(scale=0.05, size=3))
-                  for _ in range(10)])
-    K1, c1 = hx.stiffness_batch(T, "platform")
-    hx._BLOCK = 3                                      # force 4 blocks
-    K2, c2 = hx.stiffness_batch(T, "platform")
-    assert np.array_equal(K1, K2) and np.array_equal(c1, c2)
+                  for _ in range(n)])
+    for frame in (None, "platform"):
+        K1, c1 = hx.stiffness_batch(T, frame)
+        cuts = ((0, 3), (3, LANES + 9), (LANES + 9, n))
+        parts = [hx.stiffness_batch(T[a:b], frame) for a, b in cuts]
+        assert np.array_equal(K1, np.concatenate([K for K, _ in parts]))
+        assert np.array_equal(c1, np.concatenate([c for _, c in parts]))
+        for i in (0, LANES - 1, LANES, n - 1):
+            Ki, ci = hx.stiffness_batch(T[i:i + 1], frame)
+            assert np.array_equal(Ki[0], K1[i]) and ci[0] == c1[i]
 
 
 def _held_wrench_fd(hx, T0, W0, R, p, h=1e-6):
@@ -410,14 +420,15 @@ def test_batch_kernel_matches_the_leg_matrix_and_svd_condition():
     per pose, across blocks, with a near-singular pose; a bad transform far into the
     batch is refused (a non-finite one with its index)."""
     import stiffness.hexapod as sh
+    from stiffness.kernels import LANES
     hx = general_hexapod()
     rng = np.random.default_rng(5)
-    n = 2 * hx._FAST_BLOCK + 7
+    n = 2 * LANES + 7
     T = np.array([pose(rng.normal(scale=0.15, size=3), rng.normal(scale=0.05, size=3) +
                        [0, 0, 0.7]) for _ in range(n)])
     T[3] = pose([0, 0, 0], [0, 0, 1e-7])                 # nearly flat: P near singular
     K, c = hx.stiffness_batch(T)
-    for i in (0, 3, hx._FAST_BLOCK, n - 1):
+    for i in (0, 3, LANES, n - 1):
         P = hx.leg_matrix(T[i])
         assert np.abs(K[i] - P @ np.diag(hx.k) @ P.T).max() <= 1e-14 * np.abs(K[i]).max()
         assert np.isclose(c[i], hx.cond_P(T[i]), rtol=1e-9)

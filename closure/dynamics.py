@@ -548,13 +548,12 @@ _EPS[2, 1, 0], _EPS[2, 0, 1] = 1.0, -1.0
 _EPS = _EPS.reshape(3, 9)
 
 
-#: ad(V) = V @ _AD (then reshaped to 6x6): the Lie bracket [V, ·] of twists (v, ω)
-_AD = np.zeros((6, 6, 6))
+#: ad(V) = Σ_m V_m _AD3[m]: the Lie bracket [V, ·] of twists (v, ω)
+_AD3 = np.zeros((6, 6, 6))
 for _k in range(3):
     _E = _EPS.reshape(3, 3, 3)[_k]
-    _AD[3 + _k, :3, :3] = _AD[3 + _k, 3:, 3:] = _E        # ω×
-    _AD[_k, :3, 3:] = _E                                  # v×
-_AD = _AD.reshape(6, 36)
+    _AD3[3 + _k, :3, :3] = _AD3[3 + _k, 3:, 3:] = _E      # ω×
+    _AD3[_k, :3, 3:] = _E                                 # v×
 del _k, _E
 
 
@@ -766,7 +765,8 @@ class ReducedDynamics:
         sv = np.einsum("cij,cj->ci", fa_[:, :3, :3], self._xi[:, :3]) + np.cross(fa_[:, :3, 3], sw)
         self._sv, self._sw = sv[..., None], sw[..., None]
         self._carrier = np.array(carrier, dtype=int)
-        self._deps = deps
+        self._dep_ptr = np.cumsum([0] + [len(d) for d in deps]).astype(np.int64)
+        self._dep_idx = np.array([i for d in deps for i in d], dtype=np.int64)
         self._uprefix = uprefix
         li = [mech.links.index(b.link) for b in dynamics.bodies]
         self._bl = np.array(li, dtype=int)
@@ -786,7 +786,6 @@ class ReducedDynamics:
         self._Pb = t.path_sign[li][:, tc]
         self._Pc = t.path_sign[self._carrier][:, tc]
         self._E = np.eye(ni)[of_input[tc]]                 # (ntc, ni) one-hot
-        self._PbE = self._Pb[None] * self._E.T[:, None, :]    # (ni, k, ntc): per input
         lin = [e for e in dynamics.elements if e.kind in ("spring", "damper")]
         self._lin_cols = np.array([e.column for e in lin], dtype=int)
         self._lin_k = np.array([e.value if e.kind == "spring" else 0.0 for e in lin])
@@ -908,40 +907,15 @@ class ReducedDynamics:
         Q = np.zeros((B, n))
         link = None
         if self._bl.size:
+            from .kernels import newton_euler
             link = self._links(q)
-            tc = self._tc
             S = self._twists(link, q)                                   # (B, c, 6)
-            qd_t = qd[:, tc, None]
-            Sq = S * qd_t
-            Vc = self._Pc @ Sq                                          # carrier twists
-            for pos, dep in enumerate(self._deps):
-                for dd in dep:
-                    Vc[:, pos] += Sq[:, dd]
-            # [Vc, S] q̇ = ad(Vc) S q̇ with ad(v, ω) = [[ω×, v×], [0, ω×]]
-            bias = ((Vc @ _AD).reshape(Vc.shape + (6,)) @ Sq[..., None])[..., 0]
-            acc0 = self._Pb @ (S * (d2 * xr * xr)[:, tc, None] + bias)  # (B, k, 6)
-            Gi = self._PbE @ (S * d1[:, tc, None])[:, None]           # (B, n, k, 6)
-            G = Gi.transpose(0, 2, 3, 1)                                # (B, k, 6, n)
-            V = self._Pb @ Sq                                           # (B, k, 6)
-            # in each body's frame (Ad(L⁻¹), with its constant 6x6 inertia Λ_b):
-            # M = Σ G_bᵀ Λ_b G_b, h = Σ G_bᵀ (Λ_b a_b − ad(V_b)ᵀ Λ_b V_b),
-            # Q = Σ G_bᵀ Λ_b g_b
-            Lb = link[:, self._bl]
-            Rt = np.swapaxes(Lb[..., :3, :3], -1, -2)
-            Ai = np.zeros(Rt.shape[:2] + (6, 6))
-            Ai[..., :3, :3] = Ai[..., 3:, 3:] = Rt
-            Ai[..., :3, 3:] = -Rt @ _skew3(Lb[..., :3, 3])
-            g6 = np.empty(V.shape + (1,))
-            g6[..., 0] = self._g6(dyn.gravity)
-            X = Ai @ np.concatenate([G, acc0[..., None], g6, V[..., None]], -1)
-            Y = self._Lb @ X                                            # (B, k, 6, n + 3)
-            Vb = X[..., n + 2]
-            adV = (Vb @ _AD).reshape(Vb.shape + (6,))
-            Y[..., n] -= (np.swapaxes(adV, -1, -2) @ Y[..., n + 2, None])[..., 0]
-            out = (np.swapaxes(X[..., :n], -1, -2) @ Y[..., :n + 2]).sum(1)
-            M = out[..., :n]
-            h = out[..., n]
-            Q += out[..., n + 1]
+            acc = d2 * xr * xr
+            Qg = np.empty((B, n))
+            newton_euler(S, qd, d1, acc, self._tc, self._Pc, self._dep_ptr, self._dep_idx,
+                         self._Pb, self._E, self._bl, link, self._Lb, self._g6(dyn.gravity),
+                         _AD3, M, h, Qg)
+            Q += Qg
         diss, work = np.zeros(B), np.zeros(B)
         if self._lin_cols.size:                  # springs and dampers, all at once
             cols = self._lin_cols

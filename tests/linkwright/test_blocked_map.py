@@ -103,3 +103,24 @@ def test_mechanism_maps_refuse_the_blocked_keys(tmp_path, capsys):
     study.write_text(text.replace("[map]\n", '[map]\nblocked = "serial"\n'))
     assert main(["stiffness", str(study), "-o", str(tmp_path / "o")]) == 2
     assert "map.blocked" in capsys.readouterr().err
+
+
+def test_maps_above_two_million_poses_run_in_blocks_on_dask(tmp_path, monkeypatch):
+    """A 2000 × 2000 map (each axis allowed, not both in memory) goes to the blocked map on
+    Dask by itself; its run is stubbed here (a real one is the test above)."""
+    import linkwright.bigmap as bigmap
+    seen = {}
+
+    def stub(msec, hx, T, axes, mode, progress=None):
+        seen.update(mode=mode, poses=int(np.prod([len(a) for a in axes])))
+        raise RuntimeError("stub: stop before any work")
+
+    monkeypatch.setattr(bigmap, "map_from_study", stub)
+    text = (EX / "hexapod.toml").read_text()
+    head, _, tail = text.partition("[map]")
+    rest = tail.split("\n[", 1)
+    study = tmp_path / "huge.toml"
+    study.write_text(head + "[map]\nx = [-0.1, 0.1, 2000]\ny = [-0.1, 0.1, 2000]\n"
+                     + ("\n[" + rest[1] if len(rest) > 1 else ""))
+    assert main(["stiffness", str(study), "-o", str(tmp_path / "o"), "--quiet"]) == 1
+    assert seen == {"mode": "dask", "poses": 4_000_000}

@@ -59,7 +59,7 @@ def test_pyproject_packs_every_package_and_example_file(tmp_path):
 
 
 @needs_source
-def test_installed_layout_runs_demo_examples_and_bench_from_an_empty_folder(tmp_path):
+def test_installed_layout_runs_demo_and_examples_from_an_empty_folder(tmp_path):
     site, work = tmp_path / "site", tmp_path / "work"
     install_like_a_wheel(site)
     work.mkdir()
@@ -80,7 +80,7 @@ def test_installed_layout_runs_demo_examples_and_bench_from_an_empty_folder(tmp_
     lw("examples", "-o", "studies")
     lw("synth", "studies/seed001_rrr.toml", "-o", "out/rrr", "--quiet")
     assert (work / "out" / "rrr" / "variants.csv").exists()
-    assert "crane (2 loops" in lw("bench", "dynamics", "--quick")
+    # the benchmarks from an installed wheel: CI's second part (`linkwright bench --quick`)
 
 
 def test_bench_streams_each_table_and_survives_a_failing_module(tmp_path, capsys, monkeypatch):

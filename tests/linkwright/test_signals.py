@@ -27,8 +27,10 @@ def _default_signals():
         signal.signal(s, signal.SIG_DFL)
 
 
-@pytest.mark.parametrize("after", [0.5, 1.5, 3.0])
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+# early (imports), mid-run and late (writing); each signal at two of the three times
+@pytest.mark.parametrize("sig, after", [(signal.SIGINT, 0.5), (signal.SIGTERM, 1.5),
+                                        (signal.SIGINT, 3.0), (signal.SIGTERM, 0.5)],
+                         ids=["SIGINT-0.5", "SIGTERM-1.5", "SIGINT-3.0", "SIGTERM-0.5"])
 def test_a_signal_during_demo_leaves_all_or_nothing(tmp_path, sig, after):
     out = tmp_path / "demo"
     old = sig == signal.SIGINT          # SIGINT over a previous set, SIGTERM into a new folder

@@ -37,6 +37,10 @@ for _k in "HCU":
     _PARAMETERS[_k] = _PARAMETERS["R"]
 #: the status codes of a pose that closed
 _CLOSED = [k for k, v in STATUS.items() if v in REACHED]
+#: a made mechanism whose coordinates differ from the design's by more than this times
+#: max(1, the largest joint distance from the origin) (rad or length) at some time has
+#: left the design's branch: a failure, not a sample
+_BRANCH = 0.1
 
 
 @dataclass
@@ -60,7 +64,8 @@ class DriveTolerance:
     parameters : list of str
         ``<joint>.<tilt_x|tilt_y|shift_x|shift_y|shift_z>``.
     failed : int
-        Samples whose made mechanism could not follow the motion.
+        Samples whose made mechanism could not follow the motion (or left the design's
+        branch: a coordinate further than 0.1 · max(1, size) from the design's).
     rigid : list of str
         Parameters whose small change alone stops the motion (their sensitivity is not
         defined; an over-constrained design loses its mobility).
@@ -180,6 +185,8 @@ def drive_tolerance(build: Callable, frames: dict, kinds: dict, t, law, *,
         except (ClosureError, MechanismError):
             return None
         if not np.all(np.isin(pose.status, _CLOSED)):
+            return None
+        if np.abs(pose.q - ref.q).max() > _BRANCH * size:   # left the design's branch
             return None
         M, h_, Q, _ = d.terms(pose, xd, t)
         return np.einsum("bij,bj->bi", M, xdd) + h_ - Q

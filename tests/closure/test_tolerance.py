@@ -125,3 +125,31 @@ def test_bad_inputs_name_the_argument(kw, name):
         drive_tolerance(rscr, RSCR_FRAMES, RSCR_KINDS, t, lw, **args)
     with pytest.raises(MechanismError, match="frames, kinds"):
         drive_tolerance(rscr, RSCR_FRAMES, {"A": "R"}, t, lw, position_sigma=1e-3)
+
+
+def test_rigid_motion_far_from_the_origin_changes_nothing():
+    """The whole loop and gravity moved by a rigid motion 1 km away: the same samples (the
+    errors are in each joint's own frame) give the same drive forces and statistics."""
+    G = transform(exp_so3([0.4, -1.1, 0.7]), [800.0, -450.0, 300.0])
+
+    def moved(frames):
+        d0 = rscr({k: np.linalg.inv(G) @ F for k, F in frames.items()})   # to build bodies
+        m = Mechanism(["crank", "coupler", "rocker"])
+        for j in d0.m.joints:
+            m.add_joint(j.name, j.kind, j.link_a, j.link_b, at=frames[j.name])
+        m.add_input("A")
+        d = Dynamics(m, gravity=G[:3, :3] @ np.array([0, 0, -9.81]))
+        for b in d0.bodies:
+            com = G[:3, :3] @ np.asarray(b.com) + G[:3, 3]
+            d.add_body(b.link, b.mass, com, G[:3, :3] @ np.asarray(b.inertia) @ G[:3, :3].T)
+        return d
+
+    t, lw = law(0.0, 1.2, 1.5, 7)
+    kw = dict(direction_sigma=np.radians(0.1), position_sigma=5e-4, samples=20, seed=9)
+    a = drive_tolerance(rscr, RSCR_FRAMES, RSCR_KINDS, t, lw, **kw)
+    b = drive_tolerance(moved, {k: G @ F for k, F in RSCR_FRAMES.items()}, RSCR_KINDS, t, lw,
+                        **kw)
+    scale = np.abs(a.summary.drive).max()
+    assert np.allclose(b.summary.drive, a.summary.drive, atol=1e-9 * scale)
+    assert np.allclose(b.changes, a.changes, atol=1e-6 * np.abs(a.changes).max())
+    assert a.failed == b.failed == 0

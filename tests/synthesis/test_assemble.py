@@ -150,3 +150,35 @@ def test_assemble_table_records_why_a_combination_is_not_a_mechanism():
         assemble_table(df.to_dict(), S)
     with pytest.raises(SynthesisError, match="links"):
         assemble_table(df, S, links=1)
+
+
+def test_rc_and_cc_links_of_an_rccc_loop_close_back_into_it():
+    """An R-C-C-C loop (random frames) driven to three input values gives a task; the RC
+    link at the generating R direction and the CC link on the generating ground C axis
+    are its two dyads, and assembling them gives back a one-freedom mechanism that passes
+    the three positions in order on one branch."""
+    from closure import Mechanism, exp_so3, transform
+    from synthesis import Line
+    from synthesis.cylindric import cc_links, rc_links
+    rng = np.random.default_rng(3)      # a loop that moves well (condition 5–9 on the way)
+    F = [transform(exp_so3(rng.normal(size=3)), rng.normal(size=3)) for _ in range(4)]
+    m = Mechanism(["L1", "body", "L2"])
+    for name, kind, a, b, f in (("g1", "R", "ground", "L1", F[0]), ("m1", "C", "L1", "body", F[1]),
+                                ("m2", "C", "body", "L2", F[2]), ("g2", "C", "L2", "ground", F[3])):
+        m.add_joint(name, kind, a, b, at=f)
+    m.add_input("g1")
+    assert m.mobility == 1
+    pose = m.sweep(np.array([0.0, 0.2, 0.45]), return_pose=True)[1]
+    T = pose.link_frame("body")
+    assert len(T) == 3 and np.allclose(T[0], np.eye(4), atol=1e-12)
+    scr = [Screw.from_matrix(t) for t in T[1:]]
+    rc, = rc_links(*scr, F[0][:3, 2])
+    cc, = cc_links(scr, fixed_axis=Line(F[3][:3, 2], F[3][:3, 3]))
+    for got, f in ((rc.fixed_axis, F[0]), (rc.moving_axis, F[1]), (cc.fixed_axis, F[3]),
+                   (cc.moving_axis, F[2])):
+        assert abs(abs(got.direction @ f[:3, 2]) - 1) < 1e-9
+        assert np.linalg.norm(np.cross(f[:3, 2], got.point - f[:3, 3])) < 1e-9
+    a = assemble([rc, cc], scr, drive="g1")
+    assert a.mobility == 1 and a.idle == 0
+    assert a.reached.all() and np.all(a.pose_error < 1e-9)
+    assert not a.order_defect and not a.branch_defect and not a.dead_point

@@ -203,23 +203,60 @@ def rps_dyads(screws, *, azimuth=None) -> pd.DataFrame:
                                             azimuth=azimuth))
 
 
+#: the reason of a degenerate circle (:func:`circle_axes`)
+CIRCLE_ERROR = ("axis 1: the later positions of the sphere centre are collinear or coincide; "
+                "no circle through them")
+
+
+def circle_axes(p1, p2, p3):
+    """Axes of the circles through many point triples, in one pass.
+
+    Parameters
+    ----------
+    p1, p2, p3 : array_like, shape (m, 3)
+        The triples' points.
+
+    Returns
+    -------
+    n, O : ndarray, shape (m, 3)
+        Unit axis direction (normal of the triple's plane) and the circle centre (NaN
+        where degenerate).
+    angles : ndarray, shape (m, 2)
+        Angles (rad) of p2 and p3 about the axis from p1.
+    ok : ndarray of bool, shape (m,)
+        False where the points are collinear or coincide to round-off (the reason is
+        :data:`CIRCLE_ERROR`).
+    """
+    p1, p2, p3 = (np.asarray(p, float).reshape(-1, 3) for p in (p1, p2, p3))
+    d2, d3 = p2 - p1, p3 - p1
+    n = np.cross(d2, d3)
+    # collinear to round-off: relative to the triangle's size and the coordinates' size
+    size = np.maximum.reduce([np.abs(d2).max(-1), np.abs(d3).max(-1),
+                              np.abs(p3 - p2).max(-1)])
+    big = np.abs(np.stack([p1, p2, p3], 1)).max((1, 2))
+    nn = np.sqrt(np.einsum("mi,mi->m", n, n))
+    ok = nn > 1e-12 * size * np.maximum(size, big)
+    n = np.where(ok[:, None], n, np.nan) / np.where(ok, nn, 1.0)[:, None]
+    A = np.stack([2 * d2, 2 * d3, n], 1)
+    A[~ok] = np.eye(3)
+    sq = lambda p: np.einsum("mi,mi->m", p, p)
+    b = np.stack([sq(p2) - sq(p1), sq(p3) - sq(p1), np.einsum("mi,mi->m", n, p1)], 1)
+    O = np.linalg.solve(A, b[..., None])[..., 0]
+    O[~ok] = np.nan
+    u = p1 - O
+    angles = np.stack([np.arctan2(np.einsum("mi,mi->m", np.cross(u, p - O), n),
+                                  np.einsum("mi,mi->m", u, p - O)) for p in (p2, p3)], 1)
+    return n, O, angles, ok
+
+
 def circle_axis(p1, p2, p3):
     """Axis (Line) of the circle through three points, and the angles of p2, p3 about it
-    from p1."""
-    p1, p2, p3 = (np.asarray(p, float) for p in (p1, p2, p3))
-    n = cross(p2 - p1, p3 - p1)
-    # collinear to round-off: relative to the triangle's size and the coordinates' size
-    size = max(np.abs(p2 - p1).max(), np.abs(p3 - p1).max(), np.abs(p3 - p2).max())
-    if np.linalg.norm(n) <= 1e-12 * size * max(size, np.abs([p1, p2, p3]).max()):
-        raise SynthesisError("axis 1: the later positions of the sphere centre are collinear "
-                             "or coincide; no circle through them")
-    n /= np.linalg.norm(n)
-    A = np.array([2 * (p2 - p1), 2 * (p3 - p1), n])
-    b = np.array([p2 @ p2 - p1 @ p1, p3 @ p3 - p1 @ p1, n @ p1])
-    O = np.linalg.solve(A, b)
-    u = p1 - O
-    angs = [float(np.arctan2(cross(u, p - O) @ n, u @ (p - O))) for p in (p2, p3)]
-    return Line(n, O).canonical(), angs
+    from p1 (:func:`circle_axes` for one triple; raises :class:`SynthesisError` when the
+    points are collinear)."""
+    n, O, angles, ok = circle_axes(p1, p2, p3)
+    if not ok[0]:
+        raise SynthesisError(CIRCLE_ERROR)
+    return Line(n[0], O[0]).canonical(), [float(a) for a in angles[0]]
 
 
 #: the family modules whose families have their own builder: each holds ``FAMILIES``

@@ -173,14 +173,39 @@ def _rs_H(g, R, t):
 
 def _trig_roots(f, a, b, degree, K, polish: int = 4):
     """Every real root β ∈ [0, π) of the trigonometric polynomial ``f(u(β))`` (degree ≤
-    ``degree``, odd or even, u(β) = cos β a + sin β b) from ``K > 2·degree`` samples.
-    Roots come from the companion matrix of ``z^degree f``; those within 1e-4 of the
-    unit circle are polished by Newton's method on f itself."""
+    ``degree``, odd or even, u(β) = cos β a + sin β b) from ``K > 2·degree`` samples:
+    ``(β, scale)`` (:func:`_trig_roots_many` of one circle)."""
+    return _trig_roots_many(f, [(a, b)], degree, K, polish)[0]
+
+
+def _trig_roots_many(f, circles, degree, K, polish: int = 4) -> list[tuple]:
+    """:func:`_trig_roots` on several great circles ``(a, b)`` at once (``f`` evaluated on
+    all of them in each call).  Roots come from the companion matrix of ``z^degree f``;
+    those within 1e-4 of the unit circle are polished by Newton's method on f itself.
+
+    Returns
+    -------
+    list of (ndarray, float)
+        Per circle, its roots β (sorted, distinct) and the largest Fourier coefficient of
+        f on it (0 when f vanishes there; then no roots).
+    """
     beta = 2 * np.pi * np.arange(K) / K
-    u = np.cos(beta)[:, None] * a + np.sin(beta)[:, None] * b
-    h = f(u)
-    c = np.fft.fft(h) / K
-    # coefficients of z^degree f(z), highest power (frequency +degree) first
+    A = np.array([a for a, _ in circles])[:, None]
+    B = np.array([b for _, b in circles])[:, None]
+    u = np.cos(beta)[None, :, None] * A + np.sin(beta)[None, :, None] * B
+    h = f(u.reshape(-1, 3)).reshape(len(circles), K)
+    cs = np.fft.fft(h, axis=-1) / K
+    starts = [_unit_roots(c, degree, K) for c in cs]
+    bts = _newton(f, [bt for bt, _ in starts], A[:, 0], B[:, 0], polish)
+    return [(_distinct(bt) if len(bt0) else bt0, scale)
+            for bt, (bt0, scale) in zip(bts, starts)]
+
+
+def _unit_roots(c, degree, K):
+    """The angles in [0, π) of the roots near the unit circle of the polynomial whose
+    coefficients are the Fourier coefficients ``c`` (K,) of frequency +degree … −degree,
+    and the largest coefficient's magnitude (``(empty, 0.0)`` when none is finite and
+    nonzero)."""
     coef = np.array([c[k] if k >= 0 else c[K + k] for k in range(degree, -degree - 1, -1)])
     scale = np.abs(coef).max()
     if not np.isfinite(scale) or scale == 0:
@@ -189,25 +214,39 @@ def _trig_roots(f, a, b, degree, K, polish: int = 4):
     nz = np.flatnonzero(np.abs(coef) > 1e-13)
     z = np.roots(coef[nz[0]:nz[-1] + 1]) if len(nz) > 1 else np.zeros(0)
     z = z[np.abs(np.abs(z) - 1) < 1e-4]
-    bt = np.angle(z) % np.pi
-    if len(bt) == 0:
-        return bt, scale
-    hs = 1e-6
+    return np.angle(z) % np.pi, scale
 
-    def fu(x):
-        return f(np.cos(x)[:, None] * a + np.sin(x)[:, None] * b)
-    for _ in range(polish):                                     # Newton, vectorised
-        f0 = fu(bt)
-        d = (fu(bt + hs) - fu(bt - hs)) / (2 * hs)
+
+def _newton(f, bts, A, B, polish):
+    """Polish the roots ``bts`` (one array per circle (A[i], B[i])) of ``f(u(β))`` by
+    ``polish`` Newton steps (central-difference derivative, steps clipped to 0.05 rad),
+    every circle's roots in one evaluation of f per step."""
+    sizes = [len(bt) for bt in bts]
+    bt = np.concatenate(bts)
+    if len(bt) == 0:
+        return bts
+    a, b = (np.tile(np.repeat(X, sizes, axis=0), (3, 1)) for X in (A, B))
+    hs = 1e-6
+    n = len(bt)
+    for _ in range(polish):                     # f and f' in one call
+        x = np.concatenate([bt, bt + hs, bt - hs])
+        f0, fp, fm = np.split(f(np.cos(x)[:, None] * a + np.sin(x)[:, None] * b), [n, 2 * n])
+        d = (fp - fm) / (2 * hs)
         with np.errstate(all="ignore"):
             step = np.where(np.abs(d) > 0, f0 / d, 0.0)
         bt = bt - np.clip(np.nan_to_num(step), -0.05, 0.05)
+    return np.split(bt, np.cumsum(sizes)[:-1])
+
+
+def _distinct(bt):
+    """Polished roots reduced to [0, π), sorted, duplicates (within 1e-9, also across
+    0 ≡ π) dropped."""
     bt = np.sort(bt % np.pi)
     keep = np.r_[True, np.diff(bt) > 1e-9]
     bt = bt[keep]
     if len(bt) > 1 and bt[-1] - bt[0] > np.pi - 1e-9:
         bt = bt[:-1]
-    return bt, scale
+    return bt
 
 
 def _check_turning(task, name):
@@ -219,22 +258,27 @@ def _check_turning(task, name):
                                  "not determined by the rotations; this case is not supported")
 
 
-def _rs_core(R, t, a, b, tol_rank=1e-10):
+def _rs_roots(R, t, circles) -> list[tuple]:
+    """``(β, scale)`` of the RS circle condition on each great circle ``(a, b)``."""
+    return _trig_roots_many(lambda u: _rs_H(u, R, t), circles, _DEG_RS, _K_RS)
+
+
+def _rs_core(R, t, a, b, tol_rank=1e-10, roots=None):
     """RS links (normalised coordinates) on the great circle (a, b): list of
-    (β, g, C, O, θ (m,), S (m, 3, 3), D-relative)."""
-    f = lambda u: _rs_H(u, R, t)
-    bt, scale = _trig_roots(f, a, b, _DEG_RS, _K_RS)
+    (β, g, C, O, θ (m,), S (m, 3, 3), D-relative); ``roots`` the circle's
+    :func:`_rs_roots` when already found."""
+    bt, scale = _rs_roots(R, t, [(a, b)])[0] if roots is None else roots
     if scale == 0:
         raise SynthesisError("screws: degenerate: the circle condition vanishes on the whole "
                              "great circle of this azimuth (every direction admissible?)")
     out = []
-    for beta in bt:
-        g = np.cos(beta) * a + np.sin(beta) * b
-        r, D, N, _ = _rs_parts(g[None], R, t)
-        s = np.linalg.svd(r[0], compute_uv=False)
+    gs = np.cos(bt)[:, None] * a + np.sin(bt)[:, None] * b
+    rs, Ds, Ns, _ = _rs_parts(gs, R, t)
+    svs = np.linalg.svd(rs, compute_uv=False) if len(bt) else np.zeros((0, 3))
+    for beta, g, D, N, s in zip(bt, gs, Ds, Ns, svs):
         if s[-1] < tol_rank * max(s[0], 1e-300):
             continue                                            # a root of D: C at infinity
-        C = N[0] / D[0]
+        C = N / D
         Cs = np.vstack([C, np.einsum("mij,j->mi", R, C) + t])
         A4 = np.vstack([2 * (Cs[1:] - Cs[0]), g])
         b4 = np.r_[np.sum(Cs[1:] ** 2, -1) - Cs[0] @ Cs[0], g @ Cs[0]]
@@ -263,9 +307,17 @@ def rs_condition(screws, direction, *, frame=None) -> float:
 
 
 def _residual(link, task):
-    rot, pos = pose_errors(link.poses(), task.T, task.reach)
-    link.residual = float(max(rot.max(), pos.max()))
-    return link
+    """Set the link's ``residual`` (largest pose error over the task); returns the link."""
+    return _residuals([link], task)[0]
+
+
+def _residuals(links, task):
+    """:func:`_residual` of several links of one task, in one batched pose comparison."""
+    if links:
+        rot, pos = pose_errors(np.stack([lk.poses() for lk in links]), task.T, task.reach)
+        for lk, r in zip(links, np.maximum(rot.max(-1), pos.max(-1))):
+            lk.residual = float(r)
+    return links
 
 
 def _inverse(R, t):
@@ -273,24 +325,32 @@ def _inverse(R, t):
     return Ri, -np.einsum("mij,mj->mi", Ri, t)
 
 
-def _rs_family(screws, azimuth, frame, tol, kind: str):
-    """RS (``kind`` "RS") or SR ("SR") links at an azimuth, in user coordinates."""
+def _rs_setup(screws, azimuths, frame, tol, kind: str):
+    """The validated RS/SR task (in the order :func:`rs_links_at` checks its arguments):
+    ``(task, azimuths (list of float), tol, frame, R, t)``, R and t inverted for SR."""
     task = _task(screws, "screws", (4,))
     scr = _screws(screws, "screws")
-    psi = number(azimuth, "azimuth", unit_="rad")
+    psis = [number(psi, "azimuth", unit_="rad") for psi in azimuths]
     tol = number(tol, "tol", positive=True)
     F = _frame_arg(frame, scr)
     _check_turning(task, "screws")
     R, t = task.R, task.t
     if kind == "SR":
         R, t = _inverse(R, t)
+    return task, psis, tol, F, R, t
+
+
+def _rs_on(task, psi, tol, F, R, t, kind: str, roots=None):
+    """RS (``kind`` "RS") or SR ("SR") links of a set-up task (:func:`_rs_setup`) at the
+    azimuth ``psi``, in user coordinates (``roots``: the circle's :func:`_rs_roots`, when
+    already found)."""
     a, b = _circle(F, psi)
     L, c0 = task.L, task.c
     out = []
     n = len(task.T)
     z = np.zeros(n)
     I3 = np.eye(3)[None]
-    for beta, g, C, O, th, S in _rs_core(R, t, a, b):
+    for beta, g, C, O, th, S in _rs_core(R, t, a, b, roots=roots):
         Cw = C * L + c0
         axis = Line(g, O * L + c0)
         params = {"azimuth": psi, "elevation": float(beta)}
@@ -304,9 +364,45 @@ def _rs_family(screws, azimuth, frame, tol, kind: str):
             link = BinaryLink("SR", Line._exact(g.copy(), Cw), ax, np.nan, 0.0, z, z.copy(),
                               np.r_[0.0, -th], z.copy(), 0.0, params,
                               sphere_rotations=np.concatenate([I3, np.swapaxes(S, -1, -2)]))
-        _residual(link, task)
-        if link.residual <= tol:
-            out.append(link)
+        out.append(link)
+    return [lk for lk in _residuals(out, task) if lk.residual <= tol]
+
+
+def _rs_family(screws, azimuth, frame, tol, kind: str):
+    """RS (``kind`` "RS") or SR ("SR") links at an azimuth, in user coordinates."""
+    task, (psi,), tol, F, R, t = _rs_setup(screws, [azimuth], frame, tol, kind)
+    return _rs_on(task, psi, tol, F, R, t, kind)
+
+
+def rs_links_grid(screws, azimuths, *, frame=None, tol: float = 1e-9) -> list[tuple]:
+    """:func:`rs_links_at` at each of several azimuths, the task validated once.
+
+    Parameters
+    ----------
+    screws : sequence of three Screw
+        S₁₂, S₁₃, S₁₄.
+    azimuths : sequence of float
+        ψ (rad) of each great circle.
+    frame, tol
+        As :func:`rs_links_at`.
+
+    Returns
+    -------
+    list of (list of BinaryLink, str)
+        Per azimuth, its links and ``""``, or no links and the message of the
+        :class:`SynthesisError` that :func:`rs_links_at` raises there.
+    """
+    try:
+        task, psis, tol, F, R, t = _rs_setup(screws, azimuths, frame, tol, "RS")
+    except SynthesisError as e:
+        return [([], str(e)) for _ in azimuths]
+    out = []
+    roots = _rs_roots(R, t, [_circle(F, psi) for psi in psis])
+    for psi, rt in zip(psis, roots):
+        try:
+            out.append((_rs_on(task, psi, tol, F, R, t, "RS", rt), ""))
+        except SynthesisError as e:
+            out.append(([], str(e)))
     return out
 
 

@@ -100,8 +100,9 @@ def _taylor_pieces(c0, a, b):
         xs = np.clip((mid[:, None] + np.linspace(-0.5, 0.5, 9) * h).ravel(), a, b)
         got, _ = pcs(xs)
         u = (2 * xs - a - b) / (b - a)
-        if all(np.abs(got[w] - ref).max() <= 1e-14 * max(np.abs(ref).max(), 1e-300)
-               for w, ref in enumerate(C.chebval(u, ders[w]) for w in range(3))):
+        refs = [C.chebval(u, ders[w]) for w in range(3)]
+        if all(np.abs(g - r).max() <= 1e-14 * max(np.abs(r).max(), 1e-300)
+               for g, r in zip(got, refs)):
             return pcs
         P *= 2
     return False
@@ -209,7 +210,6 @@ class ChebyshevAnalog(_Surrogate):
         self.error = error or {}
         self.extrapolate = extrapolate
         self._s, self._o = 2.0 / (self.b_end - self.a), (self.a + self.b_end) / (self.a - self.b_end)
-        self._cols = [self.coef[:, k].tolist() for k in range(3)]
 
     @property
     def size(self) -> int:
@@ -235,17 +235,6 @@ class ChebyshevAnalog(_Surrogate):
         if v is not None and self.a <= v <= self.b_end and pcs is not False:
             r = pcs.scalar(v)
             return r if which is None else r[which]
-        if v is not None and self.extrapolate:
-            u = v * self._s + self._o
-            u2 = 2 * u
-            out = []
-            for w in ((0, 1, 2) if which is None else (which,)):
-                c = self._cols[w]
-                b1 = b2 = 0.0
-                for cj in c[:0:-1]:
-                    b1, b2 = cj + u2 * b1 - b2, b1
-                out.append(c[0] + u * b1 - b2)
-            return tuple(out) if which is None else out[0]
         x = as_real_array(x, "x")
         if pcs is not False:
             out, bad = pcs(x, which, self.a, self.b_end)

@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import ClosureError, MechanismError
-from .frames import exp_so3
+from .frames import as_index, as_number, exp_so3
 from .pose import REACHED, STATUS, Pose
 
 __all__ = ["DriveTolerance", "drive_tolerance", "joint_error_parameters", "made_frames"]
@@ -103,13 +103,6 @@ def made_frames(frames: dict, kinds: dict, dp) -> dict:
     return out
 
 
-def _number(v, name, low=0.0):
-    if isinstance(v, (bool, np.bool_)) or not isinstance(v, (int, float, np.integer, np.floating)) \
-            or not np.isfinite(v) or v < low:
-        raise MechanismError(f"{name}: expected a finite number ≥ {low}, got {v!r}")
-    return float(v)
-
-
 def drive_tolerance(build: Callable, frames: dict, kinds: dict, t, law, *,
                     direction_sigma: float = 0.0, position_sigma: float = 0.0,
                     samples: int = 1000, seed: int = 0, step: float = 1e-6) -> DriveTolerance:
@@ -149,15 +142,14 @@ def drive_tolerance(build: Callable, frames: dict, kinds: dict, t, law, *,
     MechanismError
         Bad input, naming the argument; ``frames`` whose design cannot follow the motion.
     """
-    direction_sigma = _number(direction_sigma, "direction_sigma")
-    position_sigma = _number(position_sigma, "position_sigma")
+    direction_sigma = _at_least(as_number(direction_sigma, "direction_sigma"),
+                                "direction_sigma", 0.0)
+    position_sigma = _at_least(as_number(position_sigma, "position_sigma"), "position_sigma",
+                               0.0)
     if direction_sigma == 0 and position_sigma == 0:
         raise MechanismError("direction_sigma, position_sigma: at least one must be > 0")
-    if isinstance(samples, (bool, np.bool_)) or not isinstance(samples, (int, np.integer)) \
-            or samples < 10:
-        raise MechanismError(f"samples: expected an integer ≥ 10, got {samples!r}")
-    if isinstance(seed, (bool, np.bool_)) or not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise MechanismError(f"seed: expected an integer ≥ 0, got {seed!r}")
+    samples = _at_least(as_index(samples, "samples"), "samples", 10)
+    seed = _at_least(as_index(seed, "seed"), "seed", 0)
     if set(frames) != set(kinds) or any(k not in _PARAMETERS for k in kinds.values()):
         raise MechanismError("frames, kinds: one frame and one kind (R, P, C, H, U, S) per joint")
     names = joint_error_parameters(kinds)
@@ -235,6 +227,13 @@ def drive_tolerance(build: Callable, frames: dict, kinds: dict, t, law, *,
     rigid = [n for i, n in enumerate(names) if not np.all(np.isfinite(J[..., i]))]
     return DriveTolerance(pd.DataFrame(rows), pd.DataFrame(peaks), changes, linear, J, names,
                           failed, rigid)
+
+
+def _at_least(v, name, low):
+    """``v`` itself, or MechanismError naming ``name`` when it is below ``low``."""
+    if v < low:
+        raise MechanismError(f"{name}: expected a value ≥ {low}, got {v!r}")
+    return v
 
 
 def _stat(f, v, **kw):

@@ -21,11 +21,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-__all__ = ["MapSummary", "StudyMap", "stiffness_map", "map_from_study", "INDICES"]
+from .render import DIMENSIONLESS
+
+__all__ = ["MapSummary", "StudyMap", "stiffness_map", "map_from_study", "INDICES", "UNITS"]
 
 #: the map's indices summarised, and their histogram ranges (log10 of the value)
 INDICES = {"kt_min": (-2.0, 18.0), "kt_max": (-2.0, 18.0), "cr_max": (-18.0, 2.0),
            "cond_P": (0.0, 20.0)}
+#: the units of the map's indices (a stiffness study's map section, in memory or blocked)
+UNITS = {"kt_min": "N/m", "kt_max": "N/m", "cr_max": "rad/(N·m)", "cond_P": DIMENSIONLESS}
 _BINS = 1000
 _WORST = 10
 _PART = "part-{:06d}.parquet"
@@ -191,10 +195,6 @@ def stiffness_map(hx, xs, ys, zs, rotation=(0.0, 0.0, 0.0), *, out=None, client=
             bar.close()
     poses, sing, q, worst = _merge(results)
     return MapSummary(poses, sing, q, worst, len(todo))
-
-
-#: the units of the summarised indices
-UNITS = {"kt_min": "N/m", "kt_max": "N/m", "cr_max": "rad/(N·m)", "cond_P": "1"}
 
 
 @dataclass

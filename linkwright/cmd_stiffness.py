@@ -103,7 +103,7 @@ def _report(study: Study, out: Outputs, progress, hx: Hexapod, T) -> dict:
         raise study.error("pose", str(e)) from None
     if not res.cond_P <= hx.singular_cond:
         raise _singular(study, hx, T, res.cond_P)
-    positions = None
+    positions = blocked_map = None
     msec = study.section("map", required=False)
     if msec:
         xs, ys, zs = (_axis(msec, k) for k in ("x", "y", "z"))    # each count checked first
@@ -131,7 +131,7 @@ def _report(study: Study, out: Outputs, progress, hx: Hexapod, T) -> dict:
     for w in caught:                                   # any other warning: passed on
         if not issubclass(w.category, SingularPoseWarning):
             warnings.warn(w.message, w.category, stacklevel=2)
-    if msec and positions is None:
+    if blocked_map is not None:
         summary.update(blocked_map.report(rep, tables))
     tsec = study.section("tolerance", required=False)
     if tsec is not None:
@@ -354,7 +354,7 @@ def _hexapod_drawing(rep: Report, hx: Hexapod, T, res, forces) -> None:
 
 
 def _map_section(rep: Report, mp: pd.DataFrame, hx: Hexapod, figures: bool = True) -> None:
-    units = {"kt_min": "N/m", "kt_max": "N/m", "cr_max": "rad/(N·m)", "cond_P": DIMENSIONLESS}
+    from .bigmap import UNITS as units
     vary = varying_axes(mp)
     rots = mp[["rx", "ry", "rz"]].drop_duplicates().to_numpy()
     rot_text = (f"at the platform rotation vector {fmt_q(np.degrees(rots[0]), 'deg')}"

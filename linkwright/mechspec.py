@@ -31,13 +31,14 @@ def build_mechanism(sec: Study, frames: dict | None = None) -> Mechanism:
     origin, x_point, z_point, pitch for H) and ``[[mechanism.input]]`` (joint, index);
     ``frames`` (``{joint: (4, 4)}``) replaces the joints' frames (a made mechanism)."""
     m = Mechanism(sec.get("links", "strs"))
+    if frames is None:
+        frames, _ = joint_frames(sec)
     for j in sec.sections("joint"):
         name = j.get("name", "str")
         kind = j.get("kind", "str", choices=list(JOINT_KINDS))
         la, lb = _pair(j, "links")
         try:
-            F = frame_from_points(j.get("origin", "vec3"), j.get("x_point", "vec3"),
-                                  j.get("z_point", "vec3")) if frames is None else frames[name]
+            F = frames[name]
             pitch = j.get("pitch", "float") if kind == "H" else None
             m.add_joint(name, kind, la, lb, at=F, pitch=pitch)
         except MechanismError as e:

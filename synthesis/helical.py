@@ -7,10 +7,10 @@ rotations θ_j, φ_j; the dual part of the screw triangle is then six linear equ
 (translations of positions 2 and 3) in the four coordinates of the axes' points, the
 slides being pitch · rotation.  They are consistent only on isolated directions g: two
 conditions on the sphere of directions.  ``helical_links`` evaluates the least-squares
-misfit of the six equations on a near-uniform grid of directions (vectorised), refines
-every local minimum by Levenberg–Marquardt on the six equations in (g, points), and
-keeps the distinct links that reach the positions to ``tol``.  With both pitches 0 the
-two links are the RR links of :func:`synthesis.rr_links`.
+misfit of the six equations on a near-uniform grid of directions, refines every local
+minimum by Levenberg–Marquardt on the six equations in (g, points) (both compiled,
+:mod:`synthesis.kernels`), and keeps the distinct links that reach the positions to
+``tol``.  With both pitches 0 the two links are the RR links of :func:`synthesis.rr_links`.
 
 With both pitches free (:func:`hh_links_free_pitch`) the six equations are linear in
 the points and the pitches for every direction g: a two-parameter family, g the free
@@ -23,9 +23,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .binary import (BinaryLink, _angles, _batched_lm, _check_rotations, _cross,
-                     _fibonacci_neighbours, _finish, _local_minima, _same, _system,
-                     _tangent_batch, _task)
+from .binary import (BinaryLink, _angles, _check_rotations, _cross, _fibonacci_neighbours,
+                     _finish, _local_minima, _perp, _same, _system, _task)
 from .errors import SynthesisError
 from .validate import integer, number, screw as _screw, unit
 
@@ -95,23 +94,16 @@ def helical_links(s12, s13, fixed_pitch: float = 0.0, moving_pitch: float = 0.0,
     _check_rotations(task, "s12, s13")
     kinds = ("R" if pg == 0 else "H", "R" if pw == 0 else "H")
     pn = (pg / task.L, pw / task.L)
-    R, t = task.R, task.t
+    from .kernels import hh_grid, hh_refine
+    R, t, pc = np.ascontiguousarray(task.R), np.ascontiguousarray(task.t), np.array(pn)
     G, nbr = _fibonacci_neighbours(samples, 3)  # small neighbourhoods: close basins (measured)
-    A, rhs, w, th, ph, basis, ok = _equations(G, R, t, ("H", "H"), pn)
-    x, = _lstsq(A, rhs)
-    merit = np.linalg.norm(np.einsum("nij,nj->ni", A, x) - rhs, axis=-1)
-    merit[~ok] = np.inf
-    idx = _local_minima(merit, nbr)
-    gof = _tangent_batch(G[idx])
-
-    def F(u, rows):                   # variable projection: the points solved for each g
-        A, rhs, *_ = _equations(gof(u, rows), R, t, ("H", "H"), pn)
-        x, = _lstsq(A, rhs)
-        return np.einsum("nij,nj->ni", A, x) - rhs
-
-    u, res = _batched_lm(F, np.zeros((len(idx), 2)))
-    conv = np.flatnonzero(res < 1e-9)
-    g = gof(u[conv], conv)
+    g0 = G[_local_minima(hh_grid(G, R, t, pc), nbr)]
+    e1, e2 = _perp(g0)
+    # variable projection: the points solved for each direction g(u) = g0 + u₁ e1 + u₂ e2
+    u, res, _ = hh_refine(np.stack([g0, e1, e2], 1), R, t, pc, 80)
+    conv = res < 1e-9
+    g = g0[conv] + u[conv, :1] * e1[conv] + u[conv, 1:] * e2[conv]
+    g /= np.linalg.norm(g, axis=1, keepdims=True)
     g *= np.where(g[:, 2:3] < 0, -1.0, 1.0)
     g = g[~np.any(np.tril(np.abs(g @ g.T) > 1 - 1e-14, -1), 1)]   # starts met at one root
     A, rhs, w, th, ph, (e1, e2, f1, f2), ok = _equations(g, R, t, ("H", "H"), pn)
@@ -124,15 +116,6 @@ def helical_links(s12, s13, fixed_pitch: float = 0.0, moving_pitch: float = 0.0,
     out.sort(key=lambda lk: tuple(np.round(lk.fixed_axis.direction * np.sign(
         lk.fixed_axis.direction[np.argmax(np.abs(lk.fixed_axis.direction))]), 12)))
     return out
-
-
-def _lstsq(A, rhs):
-    """Batched least squares ``(N, k, 6) → x (N, k)``."""
-    AtA = np.swapaxes(A, -1, -2) @ A
-    Atb = np.einsum("nji,nj->ni", A, rhs)
-    with np.errstate(all="ignore"):
-        x = np.linalg.solve(AtA + 1e-14 * np.eye(A.shape[-1]), Atb[..., None])[..., 0]
-    return (np.nan_to_num(x, nan=0.0, posinf=0.0, neginf=0.0),)
 
 
 def _link(task, g, x, kinds, pn, eq):

@@ -625,29 +625,6 @@ def sp_links(screws, azimuth: float, *, frame=None, tol: float = 1e-9) -> list[B
 
 
 # ------------------------------------------------------------------ HS
-def _hs_system(g, th, R, t, p):
-    """The 9 translation equations ``(R_j − G_j) C + (G_j − I) c = p θ_j g − t_j`` in the
-    sphere centre C (3) and the axis point c = x e1 + y e2 (2), batched: g (N, 3), θ
-    (N, 3).  Returns A (N, 9, 5), rhs (N, 9), (e1, e2)."""
-    from .binary import _perp
-    N = len(g)
-    G = _rot(g[:, None], th)                                     # (N, 3, 3, 3)
-    e1, e2 = _perp(g)
-    I = np.eye(3)
-    A = np.zeros((N, 3, 3, 5))
-    A[..., :3] = R[None] - G
-    A[..., 3] = np.einsum("nmij,nj->nmi", G - I, e1)
-    A[..., 4] = np.einsum("nmij,nj->nmi", G - I, e2)
-    rhs = p * th[..., None] * g[:, None] - t[None]
-    return A.reshape(N, 9, 5), rhs.reshape(N, 9), (e1, e2)
-
-
-def _hs_residual(g, th, R, t, p):
-    A, rhs, _ = _hs_system(g, th, R, t, p)
-    Q, _ = np.linalg.qr(A)                                      # residual: rhs off range(A)
-    return np.einsum("nij,nj->ni", Q, np.einsum("nji,nj->ni", Q, rhs)) - rhs
-
-
 #: the (elevation, angle) grids whose local minima start the HS search: each alone misses
 #: about 1.7 % of generating links (2 of 120 random chains), both together none of 120
 _HS_GRIDS = ((24, 10), (36, 10))
@@ -656,27 +633,8 @@ _HS_GRIDS = ((24, 10), (36, 10))
 def _hs_grid_starts(R, t, a, b, p, nb, nt):
     """Local minima (β, θ₂, θ₃, θ₄) (M, 4) of the variable-projection misfit on a grid of
     ``nb`` elevations β ∈ (0, π) and ``nt`` angles per position in (−π, π)."""
-    bt = (np.arange(nb) + 0.5) * np.pi / nb
-    tg = -np.pi + (np.arange(nt) + 0.5) * 2 * np.pi / nt              # symmetric grid
-    B, T2, T3, T4 = np.meshgrid(bt, tg, tg, tg, indexing="ij")
-    th = np.stack([T2.ravel(), T3.ravel(), T4.ravel()], -1)
-    # misfit on the grid by normal equations: position j's 3 rows depend on (β, θ_j) only,
-    # so AᵀA, Aᵀr, rᵀr are sums of nb · nt small blocks per position
-    gb = np.cos(bt)[:, None] * a + np.sin(bt)[:, None] * b
-    Bg, Tg = np.repeat(gb, nt, 0), np.tile(tg, nb)
-    AtA, Atr, rtr = [], [], []
-    for j in range(3):
-        Aj, rj, _ = _hs_system(Bg, np.repeat(Tg[:, None], 3, 1), R, t, p)
-        Aj, rj = Aj[:, 3 * j:3 * j + 3], rj[:, 3 * j:3 * j + 3]
-        AtA.append((np.swapaxes(Aj, 1, 2) @ Aj).reshape(nb, nt, 5, 5))
-        Atr.append(np.einsum("nji,nj->ni", Aj, rj).reshape(nb, nt, 5))
-        rtr.append(np.sum(rj * rj, -1).reshape(nb, nt))
-    M = AtA[0][:, :, None, None] + AtA[1][:, None, :, None] + AtA[2][:, None, None, :]
-    v = Atr[0][:, :, None, None] + Atr[1][:, None, :, None] + Atr[2][:, None, None, :]
-    rr = rtr[0][:, :, None, None] + rtr[1][:, None, :, None] + rtr[2][:, None, None, :]
-    with np.errstate(all="ignore"):
-        x = np.linalg.solve(M + 1e-12 * np.eye(5), v[..., None])[..., 0]
-    f = np.sqrt(np.abs(rr - np.sum(v * x, -1)))
+    from .kernels import hs_grid
+    f = hs_grid(a, b, R, t, p, nb, nt)
     # neighbours; β wraps to β ± π with θ → −θ (the same axis, reversed)
     P = np.concatenate([f[-1:, ::-1, ::-1, ::-1], f, f[:1, ::-1, ::-1, ::-1]], 0)
     P = np.pad(P, [(0, 0), (1, 1), (1, 1), (1, 1)], constant_values=np.inf)
@@ -687,44 +645,39 @@ def _hs_grid_starts(R, t, a, b, p, nb, nt):
             sl = [slice(1, -1)] * 4
             sl[ax] = slice(1 + sh, P.shape[ax] - 1 + sh)
             ok &= core <= P[tuple(sl)]
-    idx = np.flatnonzero(ok.ravel())
-    return np.stack([B.ravel()[idx], th[idx, 0], th[idx, 1], th[idx, 2]], -1)
+    ib, i2, i3, i4 = np.nonzero(ok)
+    bt = (np.arange(nb) + 0.5) * np.pi / nb
+    tg = -np.pi + (np.arange(nt) + 0.5) * 2 * np.pi / nt              # symmetric grid
+    return np.stack([bt[ib], tg[i2], tg[i3], tg[i4]], -1)
 
 
 def _hs_core(R, t, a, b, p, steps: int = 3):
     """HS links (normalised) on the circle (a, b) with pitch p ≠ 0.  Starting points: the
     RS links of the circle (exact, pitch 0) continued to pitch p in ``steps`` steps, and
     the local minima of the variable-projection misfit on the grids ``_HS_GRIDS`` over
-    the elevation β and the three helical angles; all refined by Levenberg–Marquardt.
-    Returns (β, g, C, c, θ)."""
-    from .binary import _batched_lm
-
-    def F_at(pk):
-        def F(z, rows):
-            gg = np.cos(z[:, :1]) * a + np.sin(z[:, :1]) * b
-            return _hs_residual(gg, z[:, 1:], R, t, pk)
-        return F
-    starts = [np.array([[beta, *th] for beta, _, _, _, th, _ in _rs_core(R, t, a, b)])
-             .reshape(-1, 4)]
-    if len(starts[0]):
-        z = starts[0]
-        for k in range(1, steps + 1):
-            z, _ = _batched_lm(F_at(p * k / steps), z, iters=10)
-        starts[0] = z
-    z0 = np.concatenate(starts + [_hs_grid_starts(R, t, a, b, p, nb, nt) for nb, nt in _HS_GRIDS])
-    z, res = _batched_lm(F_at(p), z0, iters=40)
+    the elevation β and the three helical angles; all refined by Levenberg–Marquardt
+    (compiled: :mod:`synthesis.kernels`).  Returns (β, g, C, c, θ)."""
+    from .binary import _perp
+    from .kernels import hs_refine, hs_system
+    R, t = np.ascontiguousarray(R), np.ascontiguousarray(t)
+    z = np.array([[beta, *th] for beta, _, _, _, th, _ in _rs_core(R, t, a, b)]).reshape(-1, 4)
+    for k in range(1, steps + 1):
+        z, _, _ = hs_refine(z, a, b, R, t, p * k / steps, 10)
+    z0 = np.concatenate([z] + [_hs_grid_starts(R, t, a, b, p, nb, nt) for nb, nt in _HS_GRIDS])
+    z, res, _ = hs_refine(z0, a, b, R, t, p, 40)
     out = []
     for k in np.flatnonzero(res < 1e-9):
         beta, th = z[k, 0], z[k, 1:]
         if np.any(np.abs(th) > np.pi):
             continue                       # a further turn: outside the convention (−π, π]
         g = np.cos(beta) * a + np.sin(beta) * b
-        A, rhs, (e1, e2) = _hs_system(g[None], th[None], R, t, p)
-        s = np.linalg.svd(A[0], compute_uv=False)
+        A, rhs = hs_system(g, th, R, t, p)
+        s = np.linalg.svd(A, compute_uv=False)
         if s[-1] < 1e-9 * s[0]:
             continue
-        x = np.linalg.lstsq(A[0], rhs[0], rcond=None)[0]
-        C, c = x[:3], x[3] * e1[0] + x[4] * e2[0]
+        x = np.linalg.lstsq(A, rhs, rcond=None)[0]
+        e1, e2 = _perp(g)
+        C, c = x[:3], x[3] * e1 + x[4] * e2
         if beta < 0 or beta >= np.pi:                            # back to β ∈ [0, π)
             k2 = np.floor(beta / np.pi)
             if int(k2) % 2:

@@ -1,0 +1,529 @@
+"""Compiled kernels of the helical root searches: the misfit grids and Levenberg–Marquardt
+of :func:`synthesis.helical_links` (HH, RH, HR) and :func:`synthesis.hs_links` (HS, SH).
+
+Slide = pitch · angle makes these equations transcendental, so their solutions are found
+by refining the local minima of a misfit on a grid of starting points.  Both steps run
+here, compiled, one small system after another:
+
+* the residual functions (a helical link's six translation equations for a fixed-axis
+  direction, the HS link's nine for an elevation and three helical angles), each with
+  its linear unknowns (the axes' points, the sphere centre) projected out;
+* the misfit on a grid of directions (HH) or of (elevation, angles) (HS);
+* one Levenberg–Marquardt for any of the residuals (central-difference Jacobian).
+
+numba compiles them on first use (``cache=True``: once per installation, then loaded
+from the cache); :mod:`synthesis.helical` and :mod:`synthesis.spherical` import this
+module only when a helical search runs, so ``import synthesis`` does not import numba.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+import numba
+
+_kernel = numba.njit(cache=True, nogil=True, error_model="numpy")
+
+
+# ------------------------------------------------------------------ small linear algebra
+@_kernel
+def _cross3(a, b, out):
+    out[0] = a[1] * b[2] - a[2] * b[1]
+    out[1] = a[2] * b[0] - a[0] * b[2]
+    out[2] = a[0] * b[1] - a[1] * b[0]
+
+
+@_kernel
+def _perp3(u, e1, e2):
+    """Two unit vectors completing unit u to a right-handed frame (as ``binary._perp``)."""
+    if abs(u[0]) < 0.9:
+        a0, a1, a2 = 1.0, 0.0, 0.0
+    else:
+        a0, a1, a2 = 0.0, 1.0, 0.0
+    d = a0 * u[0] + a1 * u[1] + a2 * u[2]
+    e1[0], e1[1], e1[2] = a0 - d * u[0], a1 - d * u[1], a2 - d * u[2]
+    n = math.sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2])
+    e1[0] /= n
+    e1[1] /= n
+    e1[2] /= n
+    _cross3(u, e1, e2)
+
+
+@_kernel
+def _rot3(u, ang, out):
+    """Rotation about unit u by ang (Rodrigues), as ``binary._rot``."""
+    c, s = math.cos(ang), math.sin(ang)
+    C = 1.0 - c
+    out[0, 0] = 1.0 + C * (-u[2] * u[2] - u[1] * u[1])
+    out[0, 1] = -s * u[2] + C * u[0] * u[1]
+    out[0, 2] = s * u[1] + C * u[0] * u[2]
+    out[1, 0] = s * u[2] + C * u[0] * u[1]
+    out[1, 1] = 1.0 + C * (-u[2] * u[2] - u[0] * u[0])
+    out[1, 2] = -s * u[0] + C * u[1] * u[2]
+    out[2, 0] = -s * u[1] + C * u[0] * u[2]
+    out[2, 1] = s * u[0] + C * u[1] * u[2]
+    out[2, 2] = 1.0 + C * (-u[1] * u[1] - u[0] * u[0])
+
+
+@_kernel
+def _signed_angle3(a, b, u):
+    """Angle about u from a to b (their components ⊥ u), as ``binary._signed_angle``."""
+    cx = a[1] * b[2] - a[2] * b[1]
+    cy = a[2] * b[0] - a[0] * b[2]
+    cz = a[0] * b[1] - a[1] * b[0]
+    ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    au = a[0] * u[0] + a[1] * u[1] + a[2] * u[2]
+    bu = b[0] * u[0] + b[1] * u[1] + b[2] * u[2]
+    return math.atan2(u[0] * cx + u[1] * cy + u[2] * cz, ab - au * bu)
+
+
+@_kernel
+def _spd_solve(M, v, x):
+    """x = M⁻¹ v for a small symmetric positive definite M (Cholesky, M overwritten by its
+    factor, v kept).  False (x zero) where a pivot is not positive or not finite."""
+    n = M.shape[0]
+    for j in range(n):
+        d = M[j, j]
+        for k in range(j):
+            d -= M[j, k] * M[j, k]
+        if not d > 0.0 or not math.isfinite(d):
+            x[:] = 0.0
+            return False
+        d = math.sqrt(d)
+        M[j, j] = d
+        for i in range(j + 1, n):
+            s = M[i, j]
+            for k in range(j):
+                s -= M[i, k] * M[j, k]
+            M[i, j] = s / d
+    for i in range(n):
+        s = v[i]
+        for k in range(i):
+            s -= M[i, k] * x[k]
+        x[i] = s / M[i, i]
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, n):
+            s -= M[k, i] * x[k]
+        x[i] = s / M[i, i]
+    return True
+
+
+@_kernel
+def _solve(M, v, x):
+    """x = M⁻¹ v by Gaussian elimination with partial pivoting (M, v overwritten).  False
+    (x zero) for an exactly singular M."""
+    n = M.shape[0]
+    for j in range(n):
+        p = j
+        for i in range(j + 1, n):
+            if abs(M[i, j]) > abs(M[p, j]):
+                p = i
+        if M[p, j] == 0.0:
+            x[:] = 0.0
+            return False
+        if p != j:
+            for k in range(n):
+                M[j, k], M[p, k] = M[p, k], M[j, k]
+            v[j], v[p] = v[p], v[j]
+        for i in range(j + 1, n):
+            f = M[i, j] / M[j, j]
+            for k in range(j, n):
+                M[i, k] -= f * M[j, k]
+            v[i] -= f * v[j]
+    for i in range(n - 1, -1, -1):
+        s = v[i]
+        for k in range(i + 1, n):
+            s -= M[i, k] * x[k]
+        x[i] = s / M[i, i]
+    return True
+
+
+@_kernel
+def _off_range(A, b, out, H, beta):
+    """``Q Qᵀ b − b`` for the Householder QR ``A = Q R`` (A (m, n) and b (m,) overwritten;
+    H (n, m), beta (n,) scratch): minus the part of b orthogonal to A's columns, as
+    numpy's reduced QR gives it."""
+    m, n = A.shape
+    for j in range(n):
+        beta[j] = 0.0
+        s = 0.0
+        for i in range(j, m):
+            s += A[i, j] * A[i, j]
+        nrm = math.sqrt(s)
+        if nrm == 0.0:
+            continue
+        alpha = -nrm if A[j, j] >= 0.0 else nrm
+        for i in range(j, m):
+            H[j, i] = A[i, j]
+        H[j, j] -= alpha
+        vv = 0.0
+        for i in range(j, m):
+            vv += H[j, i] * H[j, i]
+        if vv == 0.0:
+            continue
+        beta[j] = 2.0 / vv
+        for k in range(j, n):
+            d = 0.0
+            for i in range(j, m):
+                d += H[j, i] * A[i, k]
+            d *= beta[j]
+            for i in range(j, m):
+                A[i, k] -= d * H[j, i]
+        d = 0.0
+        for i in range(j, m):
+            d += H[j, i] * b[i]
+        d *= beta[j]
+        for i in range(j, m):
+            b[i] -= d * H[j, i]
+    for i in range(m):                 # Qᵀ b, its first n entries dropped and the rest negated
+        out[i] = 0.0 if i < n else -b[i]
+    for j in range(n - 1, -1, -1):     # back through the reflections: Q (…)
+        d = 0.0
+        for i in range(j, m):
+            d += H[j, i] * out[i]
+        d *= beta[j]
+        for i in range(j, m):
+            out[i] -= d * H[j, i]
+
+
+@_kernel
+def _workspace():
+    """Scratch arrays of the residuals, allocated once per search (an allocation costs
+    more than a residual): vectors V (16, 3), 3x3 matrices Ms (3, 3, 3), the equations A
+    (9, 5) and rhs (9,), normal equations M (4, 4), b, x (4,), Householder H (5, 9),
+    beta (5,)."""
+    return (np.zeros((16, 3)), np.zeros((3, 3, 3)), np.zeros((9, 5)), np.zeros(9),
+            np.zeros((4, 4)), np.zeros(4), np.zeros(4), np.zeros((5, 9)), np.zeros(5))
+
+
+# ------------------------------------------------------------------ HH, RH, HR links
+@_kernel
+def _hh_equations(g, R, t, pn, A, rhs, w, th, ph, V, Ms):
+    """A helical link's translation equations for the fixed-axis direction g (3,) through
+    the rotations R (2, 3, 3) and translations t (2, 3) of positions 2, 3, pitches pn (2,)
+    (normalised length / rad): fills A (6, 4), rhs (6,), the moving direction w (3,) and
+    the joint rotations θ (2,), φ (2,), as ``helical._equations`` (V (10, 3), Ms (3, 3, 3)
+    scratch).  Returns (|w| before normalising, |g × w|): the direction pair is valid
+    where both exceed 1e-9."""
+    a0, a1, v, e1, e2, f1, f2, Rw, Mv, q = V[0], V[1], V[2], V[3], V[4], V[5], V[6], V[7], \
+        V[8], V[9]
+    Gm, Wm, M = Ms[0], Ms[1], Ms[2]
+    for i in range(3):
+        a0[i] = (R[0, 0, i] * g[0] + R[0, 1, i] * g[1] + R[0, 2, i] * g[2]) - g[i]
+        a1[i] = (R[1, 0, i] * g[0] + R[1, 1, i] * g[1] + R[1, 2, i] * g[2]) - g[i]
+    _cross3(a0, a1, w)
+    wn = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+    if wn > 1e-9:
+        w[0] /= wn
+        w[1] /= wn
+        w[2] /= wn
+    else:
+        w[0], w[1], w[2] = 0.0, 0.0, 1.0
+    gw = g[0] * w[0] + g[1] * w[1] + g[2] * w[2]
+    for i in range(3):
+        v[i] = g[i] - gw * w[i]
+    _perp3(g, e1, e2)
+    _perp3(w, f1, f2)
+    for m in range(2):
+        for i in range(3):
+            Rw[i] = R[m, i, 0] * w[0] + R[m, i, 1] * w[1] + R[m, i, 2] * w[2]
+        th[m] = _signed_angle3(w, Rw, g)
+        _rot3(g, th[m], Gm)
+        for i in range(3):
+            for j in range(3):
+                M[i, j] = Gm[0, i] * R[m, 0, j] + Gm[1, i] * R[m, 1, j] + Gm[2, i] * R[m, 2, j]
+        for i in range(3):
+            Mv[i] = M[i, 0] * v[0] + M[i, 1] * v[1] + M[i, 2] * v[2]
+        ph[m] = _signed_angle3(v, Mv, w)
+        _rot3(w, ph[m], Wm)
+        for i in range(3):
+            A[3 * m + i, 0] = e1[i] - (Gm[i, 0] * e1[0] + Gm[i, 1] * e1[1] + Gm[i, 2] * e1[2])
+            A[3 * m + i, 1] = e2[i] - (Gm[i, 0] * e2[0] + Gm[i, 1] * e2[1] + Gm[i, 2] * e2[2])
+        for c in range(2):
+            f = f1 if c == 0 else f2
+            for i in range(3):
+                q[i] = f[i] - (Wm[i, 0] * f[0] + Wm[i, 1] * f[1] + Wm[i, 2] * f[2])
+            for i in range(3):
+                A[3 * m + i, 2 + c] = Gm[i, 0] * q[0] + Gm[i, 1] * q[1] + Gm[i, 2] * q[2]
+        for i in range(3):
+            Gw = Gm[i, 0] * w[0] + Gm[i, 1] * w[1] + Gm[i, 2] * w[2]
+            rhs[3 * m + i] = t[m, i] - pn[0] * th[m] * g[i] - pn[1] * ph[m] * Gw
+    _cross3(g, w, q)
+    return wn, math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2])
+
+
+@_kernel
+def _hh_misfit(g, R, t, pn, f, ws):
+    """The six equations' least-squares misfit vector f (6,) for direction g, the points
+    solved by normal equations (as ``helical._lstsq`` did); returns the validity of g."""
+    V, Ms, A9, rhs9, M, b, x = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[6]
+    A, rhs = A9[:6, :4], rhs9[:6]
+    w, th, ph = V[10], V[11], V[12]
+    wn, sgw = _hh_equations(g, R, t, pn, A, rhs, w, th, ph, V, Ms)
+    for i in range(4):
+        for j in range(4):
+            s = 0.0
+            for r in range(6):
+                s += A[r, i] * A[r, j]
+            M[i, j] = s
+        M[i, i] += 1e-14
+        s = 0.0
+        for r in range(6):
+            s += A[r, i] * rhs[r]
+        b[i] = s
+    _spd_solve(M, b, x)
+    for i in range(4):
+        if not math.isfinite(x[i]):
+            x[i] = 0.0
+    for r in range(6):
+        f[r] = A[r, 0] * x[0] + A[r, 1] * x[1] + A[r, 2] * x[2] + A[r, 3] * x[3] - rhs[r]
+    return wn > 1e-9 and sgw > 1e-9
+
+
+@_kernel
+def hh_grid(G, R, t, pn):
+    """Misfit |f| (n,) of the helical link's equations for the fixed-axis directions
+    G (n, 3) (R, t, pn as :func:`_hh_equations`); inf where the direction pair is not
+    valid."""
+    n = G.shape[0]
+    out = np.empty(n)
+    f = np.empty(6)
+    ws = _workspace()
+    for k in range(n):
+        ok = _hh_misfit(G[k], R, t, pn, f, ws)
+        s = 0.0
+        for r in range(6):
+            s += f[r] * f[r]
+        out[k] = math.sqrt(s) if ok else np.inf
+    return out
+
+
+@_kernel
+def _hh_residual(z, base, R, t, pn, f, ws):
+    """Residual f (6,) at tangent coordinates z (2,) about base = (g0, e1, e2) (3, 3):
+    the direction g = normalise(g0 + z₁ e1 + z₂ e2)."""
+    g = ws[0][13]
+    for i in range(3):
+        g[i] = base[0, i] + z[0] * base[1, i] + z[1] * base[2, i]
+    n = math.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
+    for i in range(3):
+        g[i] /= n
+    _hh_misfit(g, R, t, pn, f, ws)
+
+
+# ------------------------------------------------------------------ HS links
+@_kernel
+def _hs_rows(g, th, R, t, p, A, rhs, V, G):
+    """Position j's three HS translation equations ``(R_j − G_j) C + (G_j − I) c = p θ g
+    − t_j`` for the axis direction g (3,) and helical angle θ: A (3, 5) (sphere centre C,
+    then the axis point's coordinates on ``_perp(g)``), rhs (3,); R (3, 3), t (3,);
+    V (2, 3), G (3, 3) scratch."""
+    e1, e2 = V[0], V[1]
+    _rot3(g, th, G)
+    _perp3(g, e1, e2)
+    for i in range(3):
+        for j in range(3):
+            A[i, j] = R[i, j] - G[i, j]
+        A[i, 3] = G[i, 0] * e1[0] + G[i, 1] * e1[1] + G[i, 2] * e1[2] - e1[i]
+        A[i, 4] = G[i, 0] * e2[0] + G[i, 1] * e2[1] + G[i, 2] * e2[2] - e2[i]
+        rhs[i] = p * th * g[i] - t[i]
+
+
+@_kernel
+def hs_system(g, th, R, t, p):
+    """The nine HS equations for one axis direction g (3,) and angles θ (3,): A (9, 5),
+    rhs (9,) (R (3, 3, 3), t (3, 3), pitch p)."""
+    A, rhs = np.empty((9, 5)), np.empty(9)
+    V, G = np.empty((2, 3)), np.empty((3, 3))
+    for j in range(3):
+        _hs_rows(g, th[j], R[j], t[j], p, A[3 * j:3 * j + 3], rhs[3 * j:3 * j + 3], V, G)
+    return A, rhs
+
+
+@_kernel
+def _hs_residual(z, a, b, R, t, p, f, ws):
+    """The nine HS equations' residual f (9,) off the range of their matrix at
+    z = (β, θ₂, θ₃, θ₄), the axis direction g = cos β a + sin β b; R (3, 3, 3), t (3, 3)."""
+    V, Ms, A, rhs, H, beta = ws[0], ws[1], ws[2], ws[3], ws[7], ws[8]
+    g = V[2]
+    cb, sb = math.cos(z[0]), math.sin(z[0])
+    for i in range(3):
+        g[i] = cb * a[i] + sb * b[i]
+    for j in range(3):
+        _hs_rows(g, z[1 + j], R[j], t[j], p, A[3 * j:3 * j + 3], rhs[3 * j:3 * j + 3], V,
+                 Ms[0])
+    _off_range(A, rhs, f, H, beta)
+
+
+@_kernel
+def hs_grid(a, b, R, t, p, nb, nt):
+    """The variable-projection misfit (normal equations) of the HS equations on the grid
+    of ``nb`` elevations β ∈ (0, π) and ``nt`` angles per position in (−π, π) (a, b the
+    circle, R (3, 3, 3), t (3, 3), pitch p): position j's rows depend on (β, θ_j) only,
+    so the 5x5 normal equations of a grid point are sums of three precomputed blocks.
+    Returns the misfit (nb, nt, nt, nt) (NaN where the equations are singular)."""
+    AtA = np.empty((3, nb, nt, 5, 5))
+    Atr = np.empty((3, nb, nt, 5))
+    rtr = np.empty((3, nb, nt))
+    A, r, g, V, G = np.empty((3, 5)), np.empty(3), np.empty(3), np.empty((2, 3)), np.empty((3, 3))
+    for ib in range(nb):
+        beta = (ib + 0.5) * np.pi / nb
+        cb, sb = math.cos(beta), math.sin(beta)
+        for i in range(3):
+            g[i] = cb * a[i] + sb * b[i]
+        for it in range(nt):
+            th = -np.pi + (it + 0.5) * 2 * np.pi / nt
+            for j in range(3):
+                _hs_rows(g, th, R[j], t[j], p, A, r, V, G)
+                for u in range(5):
+                    for v in range(5):
+                        AtA[j, ib, it, u, v] = A[0, u] * A[0, v] + A[1, u] * A[1, v] + A[2, u] * A[2, v]
+                    Atr[j, ib, it, u] = A[0, u] * r[0] + A[1, u] * r[1] + A[2, u] * r[2]
+                rtr[j, ib, it] = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    f = np.empty((nb, nt, nt, nt))
+    M, v, x = np.empty((5, 5)), np.empty(5), np.empty(5)
+    for ib in range(nb):
+        for i2 in range(nt):
+            for i3 in range(nt):
+                for i4 in range(nt):
+                    for u in range(5):
+                        for w in range(5):
+                            M[u, w] = AtA[0, ib, i2, u, w] + AtA[1, ib, i3, u, w] + AtA[2, ib, i4, u, w]
+                        M[u, u] += 1e-12
+                        v[u] = Atr[0, ib, i2, u] + Atr[1, ib, i3, u] + Atr[2, ib, i4, u]
+                    rr = rtr[0, ib, i2] + rtr[1, ib, i3] + rtr[2, ib, i4]
+                    if _spd_solve(M, v, x):
+                        s = rr
+                        for u in range(5):
+                            s -= v[u] * x[u]
+                        f[ib, i2, i3, i4] = math.sqrt(abs(s))
+                    else:
+                        f[ib, i2, i3, i4] = np.nan
+    return f
+
+
+# ------------------------------------------------------------------ Levenberg–Marquardt
+_HH, _HS = 0, 1       # the residuals the Levenberg–Marquardt below knows
+
+
+@_kernel
+def _residual(kind, z, k, P, R, t, v, f, ws):
+    """System k's residual f at z: the HH misfit about base P[k] with pitches v, or the HS
+    residual on the circle P[0] = (a, b) with pitch v[0]."""
+    if kind == _HH:
+        _hh_residual(z, P[k], R, t, v, f, ws)
+    else:
+        _hs_residual(z, P[0, 0], P[0, 1], R, t, v[0], f, ws)
+
+
+@_kernel
+def _evaluate(kind, z, k, P, R, t, v, h, f, J, fp, fm, zt, ws):
+    """Residual f (r,) and central-difference Jacobian J (r, n) of system k at z; returns
+    the cost |f|² (inf where anything is not finite)."""
+    n = z.shape[0]
+    _residual(kind, z, k, P, R, t, v, f, ws)
+    ok = True
+    for i in range(n):
+        zt[:] = z
+        zt[i] = z[i] + h
+        _residual(kind, zt, k, P, R, t, v, fp, ws)
+        zt[i] = z[i] - h
+        _residual(kind, zt, k, P, R, t, v, fm, ws)
+        for r in range(f.shape[0]):
+            J[r, i] = (fp[r] - fm[r]) / (2 * h)
+            ok = ok and math.isfinite(J[r, i])
+    cost = 0.0
+    for r in range(f.shape[0]):
+        ok = ok and math.isfinite(f[r])
+        cost += f[r] * f[r]
+    return cost if ok else np.inf
+
+
+@_kernel
+def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
+    """Levenberg–Marquardt for many independent small systems, one after another.
+
+    System k's residual (r,) at z (n,) is ``_residual(kind, z, k, P, R, t, v, f)``.  Each
+    system stops when its residual vanishes (cost ≤ 1e-30), when its damping runs away
+    (≥ 1e12), or when it is stuck away from a zero: stationary (the gradient Jᵀf below
+    1e-6 of |J| |f|: f orthogonal to the Jacobian's range, which a system approaching a
+    zero never is) or its cost lowered by less than 0.1 % over 10 iterations (a system in
+    a zero's basin loses orders of magnitude an iteration).  Damping starts at 1e-3,
+    divided by 5 on an accepted step and multiplied by 8 on a rejected one.
+
+    Returns the final z (N, n), |f| (N,) and the iterations taken (N,)."""
+    N, n = z0.shape
+    z = z0.copy()
+    res = np.empty(N)
+    its = np.zeros(N, np.int64)
+    f, fn, fp, fm = np.empty(r), np.empty(r), np.empty(r), np.empty(r)
+    J, Jn = np.empty((r, n)), np.empty((r, n))
+    zt, za, step, Jtf, diag = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    JtJ = np.empty((n, n))
+    hist = np.empty(iters + 1)
+    ws = _workspace()
+    for k in range(N):
+        zk = z[k]
+        cost = _evaluate(kind, zk, k, P, R, t, v, h, f, J, fp, fm, zt, ws)
+        lam = 1e-3
+        for it in range(iters):
+            hist[it] = cost
+            if not (math.isfinite(cost) and cost > 1e-30 and lam < 1e12):
+                break
+            if it >= 10 and not (cost < 0.999 * hist[it - 10] or cost <= 1e-20):
+                break
+            its[k] = it + 1
+            g2 = 0.0
+            dsum = 0.0
+            for i in range(n):
+                s = 0.0
+                for q in range(r):
+                    s += J[q, i] * f[q]
+                Jtf[i] = -s
+                g2 += s * s
+                for j in range(n):
+                    s = 0.0
+                    for q in range(r):
+                        s += J[q, i] * J[q, j]
+                    JtJ[i, j] = s
+                diag[i] = JtJ[i, i]
+                dsum += diag[i]
+            if math.sqrt(g2) <= 1e-6 * math.sqrt(dsum * cost) and cost > 1e-20:
+                break                                              # stationary
+            for i in range(n):
+                JtJ[i, i] += lam * (diag[i] + 1e-12)
+            if not _solve(JtJ, Jtf, step):
+                step[:] = 0.0
+            for i in range(n):
+                za[i] = zk[i] + (step[i] if math.isfinite(step[i]) else 0.0)
+            cn = _evaluate(kind, za, k, P, R, t, v, h, fn, Jn, fp, fm, zt, ws)
+            if cn < cost:
+                zk[:] = za
+                f[:] = fn
+                J[:, :] = Jn
+                cost = cn
+                lam = max(lam / 5, 1e-12)
+            else:
+                lam *= 8
+        res[k] = math.sqrt(cost)
+    return z, res, its
+
+
+# ------------------------------------------------------------------ entry points
+def hh_refine(bases, R, t, pn, iters: int = 80):
+    """Levenberg–Marquardt on the helical link's misfit from the directions ``bases[:, 0]``
+    (bases (N, 3, 3): g0, e1, e2), in the tangent coordinates g = g0 + z₁ e1 + z₂ e2;
+    R (2, 3, 3), t (2, 3), pn (2,) as :func:`_hh_equations`.  Returns z (N, 2), |f| (N,),
+    iterations (N,)."""
+    return _levenberg_marquardt(_HH, np.zeros((len(bases), 2)), bases, R, t, pn, 6, iters,
+                                1e-7)
+
+
+def hs_refine(z0, a, b, R, t, p: float, iters: int):
+    """Levenberg–Marquardt on the HS residual from z0 (N, 4) = (β, θ₂, θ₃, θ₄) on the
+    circle of a, b (3,); R (3, 3, 3), t (3, 3), pitch p.  Returns z (N, 4), |f| (N,),
+    iterations (N,)."""
+    return _levenberg_marquardt(_HS, np.ascontiguousarray(z0, float), np.stack([a, b])[None],
+                                R, t, np.array([p], float), 9, iters, 1e-7)

@@ -141,61 +141,47 @@ def _solve(M, v, x):
 
 
 @_kernel
-def _off_range(A, b, out, H, beta):
-    """``Q Qᵀ b − b`` for the Householder QR ``A = Q R`` (A (m, n) and b (m,) overwritten;
-    H (n, m), beta (n,) scratch): minus the part of b orthogonal to A's columns, as
-    numpy's reduced QR gives it."""
+def _off_range(A, b, out, Q):
+    """``P b − b``, P the orthogonal projector on the columns of A (m, n): minus the part
+    of b (m,) off A's range, by modified Gram–Schmidt on [A b] (backward stable for the
+    least-squares residual, Björck & Paige 1992); Q (n, m) scratch."""
     m, n = A.shape
     for j in range(n):
-        beta[j] = 0.0
+        for i in range(m):
+            Q[j, i] = A[i, j]
+    for i in range(m):
+        out[i] = b[i]
+    for j in range(n):
+        for k in range(j):
+            d = 0.0
+            for i in range(m):
+                d += Q[k, i] * Q[j, i]
+            for i in range(m):
+                Q[j, i] -= d * Q[k, i]
         s = 0.0
-        for i in range(j, m):
-            s += A[i, j] * A[i, j]
+        for i in range(m):
+            s += Q[j, i] * Q[j, i]
         nrm = math.sqrt(s)
         if nrm == 0.0:
             continue
-        alpha = -nrm if A[j, j] >= 0.0 else nrm
-        for i in range(j, m):
-            H[j, i] = A[i, j]
-        H[j, j] -= alpha
-        vv = 0.0
-        for i in range(j, m):
-            vv += H[j, i] * H[j, i]
-        if vv == 0.0:
-            continue
-        beta[j] = 2.0 / vv
-        for k in range(j, n):
-            d = 0.0
-            for i in range(j, m):
-                d += H[j, i] * A[i, k]
-            d *= beta[j]
-            for i in range(j, m):
-                A[i, k] -= d * H[j, i]
+        for i in range(m):
+            Q[j, i] /= nrm
         d = 0.0
-        for i in range(j, m):
-            d += H[j, i] * b[i]
-        d *= beta[j]
-        for i in range(j, m):
-            b[i] -= d * H[j, i]
-    for i in range(m):                 # Qᵀ b, its first n entries dropped and the rest negated
-        out[i] = 0.0 if i < n else -b[i]
-    for j in range(n - 1, -1, -1):     # back through the reflections: Q (…)
-        d = 0.0
-        for i in range(j, m):
-            d += H[j, i] * out[i]
-        d *= beta[j]
-        for i in range(j, m):
-            out[i] -= d * H[j, i]
+        for i in range(m):
+            d += Q[j, i] * out[i]
+        for i in range(m):
+            out[i] -= d * Q[j, i]
+    for i in range(m):
+        out[i] = -out[i]
 
 
 @_kernel
 def _workspace():
     """Scratch arrays of the residuals, allocated once per search (an allocation costs
     more than a residual): vectors V (16, 3), 3x3 matrices Ms (3, 3, 3), the equations A
-    (9, 5) and rhs (9,), normal equations M (4, 4), b, x (4,), Householder H (5, 9),
-    beta (5,)."""
+    (9, 5) and rhs (9,), normal equations M (4, 4), b, x (4,), Gram–Schmidt Q (5, 9)."""
     return (np.zeros((16, 3)), np.zeros((3, 3, 3)), np.zeros((9, 5)), np.zeros(9),
-            np.zeros((4, 4)), np.zeros(4), np.zeros(4), np.zeros((5, 9)), np.zeros(5))
+            np.zeros((4, 4)), np.zeros(4), np.zeros(4), np.zeros((5, 9)))
 
 
 # ------------------------------------------------------------------ HH, RH, HR links
@@ -346,7 +332,7 @@ def hs_system(g, th, R, t, p):
 def _hs_residual(z, a, b, R, t, p, f, ws):
     """The nine HS equations' residual f (9,) off the range of their matrix at
     z = (β, θ₂, θ₃, θ₄), the axis direction g = cos β a + sin β b; R (3, 3, 3), t (3, 3)."""
-    V, Ms, A, rhs, H, beta = ws[0], ws[1], ws[2], ws[3], ws[7], ws[8]
+    V, Ms, A, rhs, Q = ws[0], ws[1], ws[2], ws[3], ws[7]
     g = V[2]
     cb, sb = math.cos(z[0]), math.sin(z[0])
     for i in range(3):
@@ -354,7 +340,7 @@ def _hs_residual(z, a, b, R, t, p, f, ws):
     for j in range(3):
         _hs_rows(g, z[1 + j], R[j], t[j], p, A[3 * j:3 * j + 3], rhs[3 * j:3 * j + 3], V,
                  Ms[0])
-    _off_range(A, rhs, f, H, beta)
+    _off_range(A, rhs, f, Q)
 
 
 @_kernel

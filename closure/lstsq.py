@@ -7,6 +7,9 @@ the position solver and the analogs (:mod:`closure.kinematics`).
 """
 from __future__ import annotations
 
+import contextlib
+import functools
+
 import numpy as np
 
 __all__: list[str] = []
@@ -21,6 +24,28 @@ def _expected_rank(mech) -> int:
         idle = mech.mobility - len(mech.inputs)
         plan.rank = n_unknown - idle
     return plan.rank
+
+
+#: matrices of at least this many entries are factorised with BLAS on one thread: a batch
+#: of the engine's small matrices gains nothing from BLAS threads and loses to their
+#: start-up and spinning (measured: an SVD batch of 200 48x64 matrices 0.22 s on one
+#: thread, 12 s with OpenBLAS's two beside another busy process); smaller ones run no
+#: BLAS threads anyway, so they skip the limit's cost (~16 µs)
+SERIAL_BLAS_ENTRIES = 256
+
+
+@functools.lru_cache(maxsize=1)
+def _threadpools():
+    from threadpoolctl import ThreadpoolController
+    return ThreadpoolController()
+
+
+def _serial_blas(J):
+    """Context: BLAS on one thread while the batch ``J (..., m, n)`` is factorised, where
+    its matrices are big enough for BLAS to thread (:data:`SERIAL_BLAS_ENTRIES`)."""
+    if J.shape[-1] * J.shape[-2] < SERIAL_BLAS_ENTRIES:
+        return contextlib.nullcontext()
+    return _threadpools().limit(limits=1, user_api="blas")
 
 
 #: singular values below this fraction of the largest are treated as zero in steps
@@ -38,7 +63,8 @@ def _pinv_parts(J, rank):
         B = J.shape[:-2]
         return (np.zeros(B + (J.shape[-2], k)), np.zeros(B + (k,)),
                 np.zeros(B + (k, J.shape[-1])), np.ones(B))
-    U, s, Vt = np.linalg.svd(J, full_matrices=False)
+    with _serial_blas(J):
+        U, s, Vt = np.linalg.svd(J, full_matrices=False)
     rank = min(rank, s.shape[-1])
     k = np.arange(s.shape[-1])
     keep = (k < rank) & (s > SINGULAR_RTOL * s[..., :1])
@@ -60,7 +86,8 @@ def _condition(J, rank):
     from the singular values alone)."""
     if J.shape[-1] == 0 or J.shape[-2] == 0:
         return np.ones(J.shape[:-2])
-    return _cond_of(np.linalg.svd(J, compute_uv=False), rank)
+    with _serial_blas(J):
+        return _cond_of(np.linalg.svd(J, compute_uv=False), rank)
 
 
 #: poses whose estimated condition number (an upper bound, within a factor min(m, n))
@@ -93,7 +120,8 @@ class _LstSq:
         k = min(m, n)
         self.J, self.wide = J, m < n
         self._inv_smin = np.zeros(B)
-        self.fast = self._gram(J) if B and k and min(rank, k) == k else np.zeros(B, bool)
+        with _serial_blas(J):
+            self.fast = self._gram(J) if B and k and min(rank, k) == k else np.zeros(B, bool)
         self.slow = np.nonzero(~self.fast)[0]
         self.cond = np.full(B, np.nan)
         if self.slow.size:

@@ -143,6 +143,30 @@ def bench_closure_speed(quick: bool = False) -> list[str]:
     out += ["", "Retained: what the returned `Pose` holds (tracemalloc, after the call); peak: "
             "the call's peak including its temporaries (chunks of 2,048 positions).  Targets: "
             "≤ 5 µs and ≤ 1 KB per position.", ""]
+    # ------------------------------------------------------------ chains of loops
+    import closure.lstsq as lstsq
+    from linkwright.references import fourbar_chain
+    out += ["| four-bars in series N | unknowns | one pose µs | batch of 200, µs / position | "
+            "same, BLAS threads as installed | ratio |", "|---|---|---|---|---|---|"]
+    xb = np.linspace(-0.05, 0.05, 200)
+    for n in ((1, 4, 16) if quick else (1, 2, 4, 8, 16)):
+        m = fourbar_chain(n)
+        p0 = m.solve(0.0)
+        xs1 = 0.02 + 0.004 * np.arange(n_one)
+        m.solve(xs1[0], guess=p0)
+        t_one = _cpu(lambda: [m.solve(x, guess=p0) for x in xs1], 5) / n_one
+        t_b = _cpu(lambda: m.solve(xb, guess=p0), 3) / xb.size
+        keep, lstsq.SERIAL_BLAS_ENTRIES = lstsq.SERIAL_BLAS_ENTRIES, np.inf
+        try:
+            t_t = _cpu(lambda: m.solve(xb, guess=p0), 3) / xb.size
+        finally:
+            lstsq.SERIAL_BLAS_ENTRIES = keep
+        out.append(f"| {n} | {2 * n} | {t_one * us:.0f} | {t_b * us:.0f} | {t_t * us:.0f} | "
+                   f"{t_t / t_b:.1f}× |")
+    out += ["", "One input drives N four-bars (each rocker the next crank).  The engine's "
+            "batched factorisations run BLAS on one thread (threadpoolctl) where the matrices "
+            "are big enough for BLAS to thread; the last columns let BLAS thread as installed "
+            "(CPU time, all threads).  Target: cost per pose linear in N.", ""]
     # ------------------------------------------------------------ building V chains
     out += ["| chains V | build µs / chain |", "|---|---|"]
     for V in ((100, 1000) if quick else (100, 1000, 10_000)):

@@ -59,6 +59,27 @@ def fourbar(a, b, c, d, t2_0, branch=1, origin_shift=None):
     return m, (t3, t4)
 
 
+def fourbar_chain(n, a=1.0, b=3.0, c=2.5, d=3.2, t2_0=0.3):
+    """``n`` planar four-bars in series, one input: four-bar k's rocker is the crank of
+    four-bar k + 1 (pivot at x = (k + 1) d, crank length a), assembled at crank angle
+    ``t2_0``.  ``n`` loops sharing one joint each: the unknowns' Jacobian is block
+    bidiagonal."""
+    m = Mechanism(["crank"] + [f"{k}_{x}" for k in range(n) for x in ("coupler", "rocker")])
+    m.add_joint("A0", "R", "ground", "crank", at=translation((0, 0, 0)))
+    crank, t2 = "crank", t2_0
+    for k in range(n):
+        x0 = k * d
+        t3, t4 = freudenstein(t2, a, b, c, d, 1)
+        m.add_joint(f"B{k}", "R", crank, f"{k}_coupler",
+                    at=translation((x0 + a * np.cos(t2), a * np.sin(t2), 0)))
+        m.add_joint(f"C{k}", "R", f"{k}_coupler", f"{k}_rocker",
+                    at=translation((x0 + d + c * np.cos(t4), c * np.sin(t4), 0)))
+        m.add_joint(f"D{k}", "R", "ground", f"{k}_rocker", at=translation((x0 + d, 0, 0)))
+        crank, t2 = f"{k}_rocker", t4
+    m.add_input("A0")
+    return m
+
+
 # ---------------------------------------------------------------- spatial RSSR
 RSSR = dict(a=1.0, b=2.5, c=1.6, P0=np.array([2.0, 0.5, 0.8]), u=np.array([0.2, 1.0, 0.3]))
 

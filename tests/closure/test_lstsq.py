@@ -85,3 +85,21 @@ def test_chunked_batch_equals_one_batch(monkeypatch):
         m.solve(x, guess=few)
     guided = m.solve(x, guess=whole)               # one guess per input, chunk by chunk
     np.testing.assert_allclose(guided.q, whole.q, rtol=0, atol=1e-12)
+
+
+def test_big_batches_factorised_with_blas_on_one_thread():
+    """The engine's batched factorisations run BLAS on one thread where its matrices are
+    big enough for BLAS to thread, and leave small ones (and BLAS afterwards) alone."""
+    import contextlib
+
+    from threadpoolctl import threadpool_info
+
+    from closure.lstsq import SERIAL_BLAS_ENTRIES, _serial_blas
+
+    def blas_threads():
+        return [p["num_threads"] for p in threadpool_info() if p["user_api"] == "blas"]
+    before = blas_threads()
+    with _serial_blas(np.zeros((3, 16, SERIAL_BLAS_ENTRIES // 16))):
+        assert blas_threads() and all(n == 1 for n in blas_threads())
+    assert blas_threads() == before
+    assert isinstance(_serial_blas(np.zeros((500, 6, 7))), contextlib.nullcontext)

@@ -28,7 +28,7 @@ import pandas as pd
 
 from .checks import real_number
 from .errors import ClosureError, MechanismError
-from .frames import as_array, as_index, as_number, cross, input_rates, skew
+from .frames import _cross, as_array, as_index, as_number, input_rates, skew
 from .kinematics import _bias, analogs, link_twists
 from .pose import REACHED, Pose
 from .solver import TANGENT_COND, SolverOptions, _take_pose
@@ -243,13 +243,13 @@ class Dynamics:
             LV = np.einsum("bkst,bkt->bks", Lam, V)
             # V ×* (Λ V) for wrenches (f, m): (ω × f, v × f + ω × m)
             w, v = V[..., 3:], V[..., :3]
-            cross_star = np.concatenate([cross(w, LV[..., :3]),
-                                         cross(v, LV[..., :3]) + cross(w, LV[..., 3:])], -1)
+            cross_star = np.concatenate([_cross(w, LV[..., :3]),
+                                         _cross(v, LV[..., :3]) + _cross(w, LV[..., 3:])], -1)
             M = np.einsum("bksi,bkst,bktj->bij", Gam, Lam, Gam)
             h = np.einsum("bksi,bks->bi", Gam,
                           np.einsum("bkst,bkt->bks", Lam, acc0) + cross_star)
             f = np.broadcast_to(m[None, :, None] * self.gravity, c.shape)
-            Wg = np.concatenate([f, cross(c, f)], -1)
+            Wg = np.concatenate([f, _cross(c, f)], -1)
             Q += np.einsum("bksi,bks->bi", Gam, Wg)
         for e in self.elements:
             q = pose.q[:, e.qcolumn]
@@ -540,7 +540,7 @@ def _rigid_inverse(T):
     return out
 
 
-#: skew(a) = a @ _EPS (then reshaped to 3x3): one product instead of six assignments
+#: the Levi-Civita symbol: [a]× = a @ _EPS reshaped to 3x3
 _EPS = np.zeros((3, 3, 3))
 _EPS[0, 2, 1], _EPS[0, 1, 2] = 1.0, -1.0
 _EPS[1, 0, 2], _EPS[1, 2, 0] = 1.0, -1.0
@@ -577,16 +577,6 @@ def _solve_small(M, F):
 
 
 _EYE4 = np.eye(4)
-
-
-def _skew3(a):
-    """[a]× (..., 3, 3) of vectors (..., 3) (no checks: the reduced model's hot path)."""
-    return (a @ _EPS).reshape(a.shape + (3,))
-
-
-def _cross(a, b):
-    """a × b over the last axis (no checks: the reduced model's hot path)."""
-    return (_skew3(a) @ b[..., None])[..., 0]
 
 
 class ReducedDynamics:

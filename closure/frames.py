@@ -105,7 +105,12 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Cross product of 3-vectors over broadcast leading axes (faster than ``np.cross``
     on small batches)."""
     a, b = as_array(a, "cross: a", (3,)), as_array(b, "cross: b", (3,))
-    out = np.empty(_broadcast("cross", a.shape, b.shape))
+    return _cross(a, b, _broadcast("cross", a.shape, b.shape))
+
+
+def _cross(a, b, shape=None):
+    """:func:`cross` without the checks (the engine's hot paths: float arrays (..., 3))."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape) if shape is None else shape)
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
     out[..., 0] = a1 * b2 - a2 * b1
@@ -418,7 +423,7 @@ def frame_from_points(origin, x_point, z_point) -> np.ndarray:
         raise MechanismError("frame_from_points: the three points are collinear "
                              "(or x_point coincides with origin); expected x_point off the Z axis")
     x = x / xn
-    y = cross(z, x)
+    y = _cross(z, x)
     return _transform(np.stack([x, y, z], -1), o)
 
 

@@ -19,7 +19,7 @@ import numpy as np
 
 from .errors import MechanismError
 from .checks import shown
-from .frames import as_array, as_index, cross
+from .frames import _cross, as_array, as_index
 from .lstsq import _LstSq, _expected_rank
 from .state import KinematicState
 
@@ -30,8 +30,8 @@ def bracket(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Lie bracket ``[a, b]`` of twists ``(v, ω)``, shapes ``(..., 6)``."""
     va, wa, vb, wb = a[..., :3], a[..., 3:], b[..., :3], b[..., 3:]
     out = np.empty(np.broadcast_shapes(a.shape, b.shape))
-    out[..., :3] = cross(wa, vb) - cross(wb, va)
-    out[..., 3:] = cross(wa, wb)
+    out[..., :3] = _cross(wa, vb) - _cross(wb, va)
+    out[..., 3:] = _cross(wa, wb)
     return out
 
 
@@ -224,7 +224,7 @@ def point_analogs(mech, pose, link: str, xyz):
     V = np.stack([link_twists(mech, ks, first[:, :, i])[:, li] for i in range(ni)], 1)  # (B,ni,6)
 
     def vel(tw, pt):                     # velocity of the point pt under twist tw
-        return tw[..., :3] + cross(tw[..., 3:], pt)
+        return tw[..., :3] + _cross(tw[..., 3:], pt)
 
     d1 = vel(V, x[:, None])              # (B, ni, 3)
     d2 = np.zeros(x.shape[:1] + (3, ni, ni))
@@ -233,7 +233,7 @@ def point_analogs(mech, pose, link: str, xyz):
             acc = link_twists(mech, ks, sec[:, :, i, k])[:, li]
             acc = acc + np.einsum("lc,bcs->bls", t.path_sign,
                                   _bias(mech, ks, first[:, :, i], first[:, :, k]))[:, li]
-            d2[:, :, i, k] = vel(acc, x) + cross(V[:, i, 3:], d1[:, k])
+            d2[:, :, i, k] = vel(acc, x) + _cross(V[:, i, 3:], d1[:, k])
     # symmetrise the velocity-product term
     d2 = 0.5 * (d2 + np.swapaxes(d2, -1, -2))
     return x, np.swapaxes(d1, 1, 2), d2

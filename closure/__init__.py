@@ -8,6 +8,7 @@ Main names
 ----------
 Mechanism            links, joints, inputs; ``solve``, ``sweep``, analogs
 Pose                 a solved batch of poses with residual, iterations, condition
+open_chain_poses     link poses of open chains with every joint driven, in bulk (no mechanism)
 KinematicState       link poses, joint frames, loop residuals and column twists of poses
 carrier_twists       twists of the frames carrying the columns (acceleration terms)
 STATUS, REACHED      the status codes of a pose; the statuses of poses that closed
@@ -20,6 +21,7 @@ ReducedDynamics      the same model with each loop replaced by transfer function
                      (``Dynamics.reduced``; surrogates from approx.surrogate_dynamics)
 drive_tolerance      drive forces of mechanisms made with joint errors (closure.tolerance)
 """
+from .chains import open_chain_poses
 from .dynamics import Body, Dynamics, ReducedDynamics, pseudo_inertia
 from .errors import ClosureError, MechanismError
 from .frames import (ad, adjoint, cross, euler_zxz, exp_se3, exp_so3, frame_from_points, hat, inverse,
@@ -40,4 +42,5 @@ __all__ = [
     "exp_so3", "log_so3", "rot_x", "rot_y", "rot_z", "rotation", "skew", "hat", "vee",
     "adjoint", "ad", "euler_zxz", "Dynamics", "ReducedDynamics", "Body", "pseudo_inertia", "cross",
     "KinematicState", "carrier_twists", "link_twists", "DriveTolerance", "drive_tolerance",
+    "open_chain_poses",
 ]

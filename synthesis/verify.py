@@ -1,10 +1,13 @@
 """Verification of synthesised chains by the closure engine, shared by every binary-link
 and dyad module of the package (it imports none of them).
 
-Every synthesised open chain hangs from the ground of one :class:`closure.Mechanism`,
-is driven to its joint values at all positions in one batched call, and each body pose
-(or, for sphere-ended chains, the sphere centre) is compared with the given one.
-Errors are rotations (rad) or translations divided by a length (the task's reach).
+Every synthesised open chain is driven to its joint values at all positions by the
+engine's bulk open-chain evaluation (:func:`closure.open_chain_poses`: all chains of a call
+in one vectorised product of the engine's joint frames and joint matrices, the poses
+:meth:`closure.Mechanism.solve` gives for the chain hung from the ground with every joint
+an input), and each body pose (or, for sphere-ended chains, the sphere centre) is compared
+with the given one.  Errors are rotations (rad) or translations divided by a length (the
+task's reach).
 """
 from __future__ import annotations
 
@@ -12,8 +15,9 @@ import functools
 
 import numpy as np
 
-from closure import Mechanism, transform
-from closure.frames import cross, log_so3
+from closure import Mechanism, open_chain_poses, transform
+from closure.frames import _log_so3, cross, log_so3
+from closure.frames import _transform as _exact_transform
 
 from .errors import SynthesisError
 from .screw import Line
@@ -21,10 +25,11 @@ from .validate import array, line, number
 from .validate import transform as _transform
 
 __all__ = ["in_chunks", "chain_mechanism", "verify_chain", "verify_chains", "verify_points", "pose_error",
-           "pose_errors", "verify_links", "verify_open_chains"]
+           "pose_errors", "verify_links", "verify_open_chains", "verify_driven"]
 
 
-#: chains per engine mechanism in the verifications (measured: a few dozen is fastest)
+#: chains per engine mechanism in the verifications that build one (measured: a few dozen
+#: is fastest)
 VERIFY_CHUNK = 32
 
 
@@ -33,7 +38,8 @@ def in_chunks(verify):
     :data:`VERIFY_CHUNK` chains, one engine mechanism each, and join the errors: the
     engine's batched solve carries dense (positions, coordinates, inputs) arrays,
     quadratic in the chains of one mechanism, and the chains are independent (same
-    poses, same errors)."""
+    poses, same errors).  (The verifications of this module need no chunks: their open
+    chains go through :func:`closure.open_chain_poses`, linear in the chains.)"""
     @functools.wraps(verify)
     def run(chains, targets, length: float = 1.0):
         chains = list(chains)
@@ -49,30 +55,69 @@ def _frame_of(line: Line) -> np.ndarray:
     return _frames_of([line])[0]
 
 
-def _frames_of(lines) -> np.ndarray:
-    """Joint frames (N, 4, 4) with Z along each line at its point, in one vectorised pass."""
-    z = np.array([ln.direction for ln in lines])
+def _frames_of(lines, check: bool = True) -> np.ndarray:
+    """Joint frames (N, 4, 4) with Z along each line at its point, in one vectorised pass
+    (rotations exact by construction; ``check=False`` leaves out their check, for callers
+    that check the frames' entries themselves)."""
+    # (concatenate: a third faster than np.array on thousands of 3-vectors)
+    z = np.concatenate([ln.direction for ln in lines]).reshape(-1, 3)
     a = np.where((np.abs(z[:, 0]) < 0.9)[:, None], [1.0, 0, 0], [0, 1.0, 0])
     x = a - np.sum(a * z, 1, keepdims=True) * z
     x /= np.linalg.norm(x, axis=1, keepdims=True)
-    return transform(np.stack([x, cross(z, x), z], -1), np.array([ln.point for ln in lines]))
+    p = np.concatenate([ln.point for ln in lines]).reshape(-1, 3)
+    return (transform if check else _exact_transform)(np.stack([x, cross(z, x), z], -1), p)
 
 
-def _hang_chains(m: Mechanism, chains, n_links: int):
-    """Hang every chain (types, lines, ...) from the ground of ``m``: links A{v}, B{v}[, body{v}],
-    joints v{v}j{k} as inputs; frames built in one pass (exact rotations, not re-validated)."""
-    frames = _frames_of([ln for c in chains for ln in c[1][:n_links]])
-    f = 0
-    for v, chain in enumerate(chains):
-        types = chain[0]
-        links = ["ground", f"A{v}", f"B{v}", f"body{v}"][:n_links + 1]
-        for name in links[1:]:
-            m.add_link(name)
-        for k in range(n_links):
-            m.add_joint(f"v{v}j{k + 1}", types[k], links[k], links[k + 1], at=frames[f],
-                        validate=False)
-            m.add_input(f"v{v}j{k + 1}")
-            f += 1
+def _joint_frames(types, joints) -> np.ndarray:
+    """Joint frames (V, k, 4, 4) of V chains of k joints: ``types`` V strings of k letters,
+    ``joints`` per chain k joints, a Line (Z along it at its point) or, for a U joint, its
+    pins and centre ``(a, b, O)`` (Z along ``a``, the pin on the link before it, X along
+    ``b``)."""
+    flat = [j for js in joints for j in js]
+    letters = "".join(types)
+    pins = [i for i, t in enumerate(letters) if t == "U" and not isinstance(flat[i], Line)] \
+        if "U" in letters else []
+    if not pins:
+        return _frames_of(flat, check=False).reshape(len(joints), -1, 4, 4)
+    lines = np.ones(len(flat), bool)
+    lines[pins] = False
+    F = np.zeros((len(flat), 4, 4))
+    if lines.any():
+        F[lines] = _frames_of([j for j, ln in zip(flat, lines) if ln], check=False)
+    a, b, O = (np.array(x, float) for x in zip(*[flat[i] for i in pins]))
+    F[pins, :3, 0], F[pins, :3, 1], F[pins, :3, 2], F[pins, :3, 3] = b, np.cross(a, b), a, O
+    F[pins, 3, 3] = 1.0
+    return F.reshape(len(joints), -1, 4, 4)
+
+
+def _drive(types, joints, values, pitches=None) -> np.ndarray:
+    """Link poses (P, V, k, 4, 4) of V open chains of k joints hung from the ground and
+    driven by ``values`` (P, V, k, 2) (the engine's coordinates, see
+    :func:`closure.open_chain_poses`; ``joints`` as in :func:`_joint_frames`: exact
+    rotations, so the engine checks only that the frames are finite)."""
+    return open_chain_poses(types, _joint_frames(types, joints), values, pitches, validate=False)
+
+
+def _worst(bodies, targets, length) -> np.ndarray:
+    """Each chain's largest pose error over the positions, as :func:`pose_errors` (without
+    its rotation check: ``bodies`` (P, V, 4, 4) are products of exact rotations, the targets
+    checked by the callers)."""
+    T = np.asarray(targets, float)[:, None]
+    rot = np.linalg.norm(_log_so3(np.swapaxes(bodies[..., :3, :3], -1, -2) @ T[..., :3, :3]),
+                         axis=-1)
+    pos = np.linalg.norm(bodies[..., :3, 3] - T[..., :3, 3], axis=-1) / length
+    return np.maximum(rot.max(0), pos.max(0))
+
+
+def _stacked(arrays) -> np.ndarray:
+    """Per-chain arrays (P, ...) as one array (P, V, ...)."""
+    return np.array(arrays, float).swapaxes(0, 1)
+
+
+def _first_slot(jv) -> np.ndarray:
+    """One value per joint (P, V, k) as the engine's coordinates (P, V, k, 2): the second
+    coordinate of a C or U joint (not driven by these chains) stays zero."""
+    return np.stack([jv, np.zeros_like(jv)], -1)
 
 
 _KINDS = "RPCHU"
@@ -135,14 +180,15 @@ def pose_errors(A, B, length: float = 1.0):
     return rot, pos / length
 
 
-@in_chunks
 def verify_chains(chains, targets, length: float = 1.0) -> np.ndarray:
-    """Verify many synthesised chains at once: all of them hang from the ground of one
-    engine mechanism, driven by their joint values at every position in one batched call.
+    """Verify many synthesised chains at once: all of them are driven by their joint values
+    at every position in one bulk engine evaluation (:func:`closure.open_chain_poses`).
 
     Parameters
     ----------
     chains : list of (types, lines, joint_values (P, 3))
+        One value per joint (angle rad, or slide length for P; a C or U joint's second
+        coordinate stays zero).
     targets : (P, 4, 4) the given poses
 
     Returns
@@ -152,21 +198,16 @@ def verify_chains(chains, targets, length: float = 1.0) -> np.ndarray:
     """
     if not chains:
         return np.zeros(0)
-    m = Mechanism()
-    _hang_chains(m, chains, 3)
-    x = np.concatenate([np.asarray(jv, float) for _, _, jv in chains], 1)
-    pose = m.solve(x)
-    link = pose.kinematics(twists=False)["link"]
-    bodies = link[:, [m.links.index(f"body{v}") for v in range(len(chains))]]   # (P, V, 4, 4)
-    rot, pos = pose_errors(bodies, np.asarray(targets, float)[:, None], length)
-    return np.maximum(rot.max(0), pos.max(0))
+    jv = _stacked([c[2] for c in chains])
+    poses = _drive([c[0] for c in chains], [c[1][:3] for c in chains], _first_slot(jv))
+    return _worst(poses[:, :, -1], targets, length)
 
 
-@in_chunks
 def verify_points(chains, targets, length: float = 1.0) -> np.ndarray:
     """Verify sphere-ended chains: the two joints before the sphere are driven by the engine
-    (all chains in one mechanism, one batched call) and the sphere centre's position is
-    compared with its given positions (the sphere leaves the orientation free).
+    (all chains in one bulk evaluation, :func:`closure.open_chain_poses`) and the sphere
+    centre carried by the second link is compared with its given positions (the sphere
+    leaves the orientation free).
 
     Parameters
     ----------
@@ -192,33 +233,26 @@ def verify_points(chains, targets, length: float = 1.0) -> np.ndarray:
     """
     if not chains:
         return np.zeros(0)
-    m = Mechanism()
-    frames = _frames_of([ln for c in chains for ln in c[1][:2]])
-    for v, c in enumerate(chains):
-        types = c[0]
-        pitches = c[4] if len(c) > 4 else None
-        links = ["ground", f"A{v}", f"B{v}"]
-        m.add_link(links[1])
-        m.add_link(links[2])
-        for k in range(2):
-            p = None
-            if types[k] == "H":
-                p = None if pitches is None else float(pitches[k])
-                if p is None or not np.isfinite(p):
-                    raise SynthesisError(f"chains[{v}]: pitches: joint {k + 1} is helical; "
-                                         f"expected a finite pitch, got {p}")
-            m.add_joint(f"v{v}j{k + 1}", types[k], links[k], links[k + 1], at=frames[2 * v + k],
-                        validate=False, pitch=p)
-            m.add_input(f"v{v}j{k + 1}")
-    pose = m.solve(np.concatenate([np.asarray(c[2], float) for c in chains], 1))
+    types = [c[0][:2] for c in chains]
+    h = None
+    if any("H" in t for t in types):
+        h = np.zeros((len(chains), 2))
+        for v, c in enumerate(chains):
+            pitches = c[4] if len(c) > 4 else None
+            for k in range(2):
+                if types[v][k] == "H":
+                    p = None if pitches is None else float(pitches[k])
+                    if p is None or not np.isfinite(p):
+                        raise SynthesisError(f"chains[{v}]: pitches: joint {k + 1} is helical; "
+                                             f"expected a finite pitch, got {p}")
+                    h[v, k] = p
+    jv = _stacked([c[2] for c in chains])
+    B = _drive(types, [c[1][:2] for c in chains], _first_slot(jv), h)[:, :, 1]   # (P, V, 4, 4)
+    O = np.array([c[3] for c in chains], float)                                 # (V, 3)
     T = np.asarray(targets, float)
-    err = []
-    for v, c in enumerate(chains):
-        centre = c[3]
-        got = np.atleast_2d(pose.point(f"B{v}", centre))
-        want = T[:, :3, :3] @ centre + T[:, :3, 3]
-        err.append(np.linalg.norm(got - want, axis=1).max() / length)
-    return np.array(err)
+    got = (B[..., :3, :3] @ O[..., None])[..., 0] + B[..., :3, 3]
+    want = (T[:, None, :3, :3] @ O[..., None])[..., 0] + T[:, None, :3, 3]
+    return np.linalg.norm(got - want, axis=-1).max(0) / length
 
 
 def verify_chain(types, lines, joint_values, targets, length: float = 1.0) -> float:
@@ -273,9 +307,9 @@ def pose_error(A, B, length_scale: float = 1.0) -> float:
 
 
 def verify_links(links, targets, length: float = 1.0) -> np.ndarray:
-    """Verify binary links (two joints R, H, C or P) with the closure engine: every link hangs
-    from the ground of one mechanism, driven by its joint values at every position in one
-    batched call, and the body pose is compared with the given one.
+    """Verify binary links (two joints R, H, C or P) with the closure engine: every link is
+    driven by its joint values at every position in one bulk evaluation
+    (:func:`closure.open_chain_poses`), and the body pose is compared with the given one.
 
     Parameters
     ----------
@@ -305,8 +339,9 @@ def verify_links(links, targets, length: float = 1.0) -> np.ndarray:
 
 def verify_open_chains(chains, targets, length: float = 1.0) -> np.ndarray:
     """Verify open chains of any number of screw joints (R, H, C, P) with the closure engine:
-    every chain hangs from the ground of one mechanism, driven by its joint values at every
-    position in one batched call, and its last link's pose is compared with the given one.
+    every chain is driven by its joint values at every position in one bulk evaluation per
+    string of joint letters (:func:`closure.open_chain_poses`), and its last link's pose is
+    compared with the given one.
 
     Binary links with spherical or universal joints are verified through their
     :meth:`synthesis.BinaryLink.engine_chain` (an S as three revolutes, a U as two).
@@ -336,32 +371,61 @@ def _verify_open(chains, targets, length, name: str) -> np.ndarray:
         return np.zeros(0)
     length = number(length, "length", positive=True)
     targets = _transform(targets, "targets", batch=True)
-    m = Mechanism()
-    frames = _frames_of([ln for ch in chains for ln in ch[1]])
-    cols, f, last = [], 0, []
+    groups = {}
     for v, (types, lines, pitches, jv) in enumerate(chains):
         if not isinstance(types, str) or not types or any(t not in "RHCP" for t in types) \
                 or len(lines) != len(types) or len(pitches) != len(types):
             raise SynthesisError(f"{name}[{v}]: types: expected letters of R, H, C, P, one Line "
                                  f"and one pitch per joint, got {types!r}")
-        names = ["ground"] + [f"v{v}L{k + 1}" for k in range(len(types))]
-        for k, t in enumerate(types):
-            m.add_link(names[k + 1])
-            jn = f"v{v}j{k + 1}"
-            m.add_joint(jn, t, names[k], names[k + 1], at=frames[f], validate=False,
-                        pitch=float(pitches[k]) if t == "H" else None)
-            f += 1
-            m.add_input(jn, 0)
-            if t == "C":
-                m.add_input(jn, 1)
         jv = np.asarray(jv, float)
-        if jv.shape != (targets.shape[0], sum(2 if t == "C" else 1 for t in types)):
+        if jv.shape != (targets.shape[0], len(types) + types.count("C")):
             raise SynthesisError(f"{name}[{v}]: joint_values: expected one row per target and "
                                  f"one column per driven coordinate, got shape {jv.shape}")
-        cols.append(jv)
-        last.append(names[-1])
-    pose = m.solve(np.concatenate(cols, 1), continuation=False)
-    link = pose.kinematics(twists=False)["link"]
-    bodies = link[:, [m.links.index(n) for n in last]]
-    rot, pos = pose_errors(bodies, targets[:, None], length)
-    return np.maximum(rot.max(0), pos.max(0))
+        groups.setdefault(types, []).append((v, jv))
+    out = np.empty(len(chains))
+    for types, group in groups.items():         # chains of one kind string: one evaluation
+        idx = [v for v, _ in group]
+        jv = _stacked([x for _, x in group])                                # (P, V, columns)
+        col = np.cumsum([0] + [2 if t == "C" else 1 for t in types])
+        q = np.zeros(jv.shape[:2] + (len(types), 2))
+        for k, t in enumerate(types):
+            q[..., k, :col[k + 1] - col[k]] = jv[..., col[k]:col[k + 1]]
+        h = [[float(p) if t == "H" else 0.0 for t, p in zip(types, chains[v][2])] for v in idx]
+        poses = _drive([types] * len(idx), [chains[v][1] for v in idx], q, h)
+        out[idx] = _worst(poses[:, :, -1], targets, length)
+    return out
+
+
+def verify_driven(chains, targets, length: float) -> np.ndarray:
+    """Pose errors of three-joint (or any k-joint) chains given as the dyad enumerations
+    build them, driven in one bulk engine evaluation (:func:`closure.open_chain_poses`).
+
+    Parameters
+    ----------
+    chains : list of (types, joints, values, pitches)
+        ``types`` k letters of R, P, C, H, U (ground joint first, the same k for every
+        chain); ``joints`` per joint a Line (R, P, C, H: the axis in position 1) or the
+        U joint's ``(a, b, O)`` (its pin on the link before it, its pin on the link after
+        it, its centre); ``values (P, k, 2)`` per position and joint (angle rad, slide
+        length) of R, P, C, H (an H joint's slide follows from its angle) and (φ, θ) (rad)
+        of a U; ``pitches`` k numbers or one (length / rad, read for H joints only).
+    targets : array_like, shape (P, 4, 4)
+        The body's given poses.
+    length : float
+        Length the translation errors are divided by.
+
+    Returns
+    -------
+    numpy.ndarray, shape (len(chains),)
+        Each chain's largest pose error over the positions (rad, or translation / length).
+    """
+    if not chains:
+        return np.zeros(0)
+    types = [c[0] for c in chains]
+    vals = _stacked([c[2] for c in chains])                             # (P, V, k, 2)
+    slide = np.frombuffer("".join(types).encode(), "S1").reshape(len(types), -1) == b"P"
+    q = vals.copy()
+    q[..., 0] = np.where(slide, vals[..., 1], vals[..., 0])             # P: s is coordinate 0
+    h = np.array([c[3] for c in chains], float)
+    poses = _drive(types, [c[1] for c in chains], q, h[:, None] if h.ndim == 1 else h)
+    return _worst(poses[:, :, -1], targets, length)

@@ -4,7 +4,11 @@
 (two RR links → a Bennett 4R, RR + SS → an RRSS, …) into one closure
 :class:`~closure.Mechanism` assembled at position 1 (every joint coordinate zero there),
 checks its mobility, and drives one joint from position 1 through the task's positions
-by the engine's continuation (which stays on the branch it starts on).
+by the engine's continuation (which stays on the branch it starts on).  A mechanism with
+no joint to drive (a 5-SS platform: every joint spherical) is driven through a body
+coordinate instead: a virtual chain of three slides and a ball (ground–P–P–P–S–body,
+adding no constraint and no freedom) whose first slide, the displacement of a body point
+along a fixed direction, is the input.
 """
 from __future__ import annotations
 
@@ -22,7 +26,7 @@ from .errors import SynthesisError
 from .rr import RRLink
 from .rs import RSLink
 from .screw import Line
-from .validate import integer, number, screws as _screws, task_scale
+from .validate import integer, number, screws as _screws, task_scale, unit, vec3
 from .verify import _frame_of, pose_errors
 
 __all__ = ["Assembly", "assemble", "assemble_table", "link_from_row"]
@@ -41,9 +45,11 @@ class Assembly:
     idle : int
         Number of idle freedoms (links with two spherical joints).
     drive : str
-        The driven joint (R, H or P).
+        The driven joint (R, H or P), or ``"body"``: the body coordinate of the virtual
+        chain (joints ``body_slide``, ``body_e1``, ``body_e2``, ``body_ball``), the
+        displacement of ``drive_point`` along ``drive_direction``.
     drive_values : numpy.ndarray, shape (P,)
-        The drive's coordinate at each task position (rad, or length for P).
+        The drive's coordinate at each task position (rad, or length for P and body).
     travel : numpy.ndarray, shape (P,)
         Drive travel from position 1 to each position in the sense of the sweep (rad or
         length, ≥ 0 for angles).
@@ -71,6 +77,9 @@ class Assembly:
         sweep from position 1 to the last position reached.
     sweep : pandas.DataFrame
         The engine's sweep table.
+    drive_point, drive_direction : numpy.ndarray, shape (3,) or None
+        For ``drive="body"``: the body point (position 1, length) and the unit direction
+        of its driven displacement; None for a joint drive.
     """
 
     mechanism: Mechanism
@@ -87,6 +96,8 @@ class Assembly:
     dead_point: bool
     transmission: float
     sweep: object = field(repr=False, default=None)
+    drive_point: np.ndarray | None = None
+    drive_direction: np.ndarray | None = None
 
     @property
     def defects(self) -> bool:
@@ -125,7 +136,7 @@ def _joints_of(link, v: int):
 
 
 def assemble(links, screws, *, drive: str | None = None, steps: int = 180,
-             tol: float = 1e-9) -> Assembly:
+             tol: float = 1e-9, drive_point=None, drive_direction=None) -> Assembly:
     """Close binary links sharing ground and body into a mechanism and sweep it.
 
     Parameters
@@ -136,12 +147,22 @@ def assemble(links, screws, *, drive: str | None = None, steps: int = 180,
         The task: displacements S12…S1P from position 1.
     drive : str, optional
         The driven joint, ``"g<i>"`` (ground joint of link i, 1-based) or ``"m<i>"``; an
-        R, H or P joint.  Default ``"g1"``.
+        R, H or P joint; or ``"body"``: a body coordinate, the displacement of a body
+        point along a fixed direction, through a virtual chain ground–P–P–P–S–body that
+        adds no constraint (for mechanisms without a drivable joint, e.g. a 5-SS
+        platform; a dead point then means that coordinate turns back, and the order is
+        the order along it).  Default: the first R, H or P joint of g1, m1, g2, …, else
+        ``"body"``.
     steps : int
         Rows of the sweep per full turn of an angle drive (or over the travel of a P
         drive), at least 8; the engine subdivides further to stay on its branch.
     tol : float
         Largest pose error (rad, or relative to the task's reach) of a reached position.
+    drive_point, drive_direction : array_like, shape (3,), optional
+        For ``drive="body"``: the body point (in position 1, length) and the direction
+        of its driven displacement; default the task's centre and the direction in which
+        it travels to position 2.  A slide drive sweeps forward from position 1 and, for
+        positions behind it, backward.
 
     Returns
     -------
@@ -171,21 +192,22 @@ def assemble(links, screws, *, drive: str | None = None, steps: int = 180,
     tol = number(tol, "tol", positive=True)
     P = len(scr) + 1
     T = np.array([np.eye(4)] + [s.matrix() for s in scr])
-    _, _, reach = task_scale(list(T[1:]), [s.axis for s in scr], [s.point for s in scr])
+    centre, _, reach = task_scale(list(T[1:]), [s.axis for s in scr], [s.point for s in scr])
     joints = [_joints_of(lk, v) for v, lk in enumerate(links)]
     for v, js in enumerate(joints):
         for kind, _, _, vals in js:
             if vals is not None and vals.shape != (P,):
                 raise SynthesisError(f"links[{v}]: has joint values for {vals.shape[0]} "
                                      f"positions, but screws give {P} positions")
-    drive = "g1" if drive is None else drive
     names = [f"{c}{i + 1}" for i in range(len(links)) for c in "gm"]
-    if not isinstance(drive, str) or drive not in names:
-        raise SynthesisError(f"drive: expected one of {names}, got {drive!r}")
-    v, k = int(drive[1:]) - 1, 0 if drive[0] == "g" else 1
-    dkind, _, _, dvals = joints[v][k]
-    if dkind not in "RHP":
-        raise SynthesisError(f"drive: {drive} is a {dkind} joint; expected an R, H or P joint")
+    kinds = {n: joints[i // 2][i % 2][0] for i, n in enumerate(names)}
+    if drive is None:
+        drive = next((n for n in names if kinds[n] in "RHP"), "body")
+    if not isinstance(drive, str) or drive not in names + ["body"]:
+        raise SynthesisError(f"drive: expected one of {names + ['body']}, got {drive!r}")
+    if drive != "body" and kinds[drive] not in "RHP":
+        raise SynthesisError(f"drive: {drive} is a {kinds[drive]} joint; expected an R, H or "
+                             "P joint, or 'body'")
     m = Mechanism([f"L{i + 1}" for i in range(len(links))] + ["body"])
     for i, js in enumerate(joints):
         for c, (kind, frame, pitch, _), a, b in zip("gm", js, ("ground", f"L{i + 1}"),
@@ -196,7 +218,17 @@ def assemble(links, screws, *, drive: str | None = None, steps: int = 180,
     if mob - idle != 1:
         raise SynthesisError(f"links: the assembled mechanism has mobility {mob} ({idle} idle "
                              f"freedoms); assemble sweeps mechanisms of one degree of freedom")
-    m.add_input(drive)
+    point = direction = None
+    if drive == "body":
+        if drive_point is not None:
+            centre = vec3(drive_point, "drive_point")
+        point, direction, dvals = _body_drive(
+            m, T, centre, reach, None if drive_direction is None else
+            unit(drive_direction, "drive_direction"))
+        dkind = "P"
+    else:
+        dkind, _, _, dvals = joints[int(drive[1:]) - 1][0 if drive[0] == "g" else 1]
+        m.add_input(drive)
     angle = dkind != "P"
     # the sense of travel: toward position 2 first (the short way for an angle)
     d2 = dvals[1] - dvals[0]
@@ -207,29 +239,67 @@ def assemble(links, screws, *, drive: str | None = None, steps: int = 180,
     if angle:
         travel = travel % (2 * np.pi)
     order = bool(np.any(np.diff(travel[1:]) <= 0)) or bool(np.any(travel[1:] <= 0))
-    end = float(travel.max())
-    span = 2 * np.pi if angle else max(end, 1e-300)
-    grid = np.linspace(0.0, end, max(2, int(np.ceil(steps * end / span)) + 1))
-    path = np.unique(np.concatenate([grid, travel]))
-    df, poses = m.sweep(dvals[0] + sense * path, return_pose=True)
-    ok = df["status"].isin(["ok", "near-singular"]).to_numpy()
-    n_ok = len(ok) if ok.all() else int(np.argmin(ok))
-    body = poses.kinematics(twists=False)["link"][:, m.links.index("body")]
     err = np.full(P, np.inf)
     res = np.full(P, np.inf)
-    for p in range(P):
-        row = int(np.searchsorted(path, travel[p]))
-        if row < n_ok:
-            rot, pos = pose_errors(body[row], T[p], reach)
-            err[p] = max(float(rot), float(pos))
-            res[p] = float(df["residual"].iloc[row])
-    cond = df["condition"].to_numpy()[:n_ok].astype(float)
-    near = bool(np.any(df["status"].to_numpy()[:n_ok] == "near-singular"))
+    tables, conds, stopped, near = [], [], False, False
+    # from position 1 forward, and for a slide also backward to positions behind it
+    for side in (1.0, -1.0) if not angle and np.any(travel < 0) else (1.0,):
+        mine = side * travel >= 0
+        end = float(np.max(side * travel[mine]))
+        span = 2 * np.pi if angle else max(float(np.abs(travel).max()), 1e-300)
+        grid = np.linspace(0.0, end, max(2, int(np.ceil(steps * end / span)) + 1))
+        path = np.unique(np.concatenate([grid, side * travel[mine]]))
+        df, poses = m.sweep(dvals[0] + sense * side * path, return_pose=True)
+        ok = df["status"].isin(["ok", "near-singular"]).to_numpy()
+        n_ok = len(ok) if ok.all() else int(np.argmin(ok))
+        body = poses.kinematics(twists=False)["link"][:, m.links.index("body")]
+        for p in np.flatnonzero(mine):
+            row = int(np.searchsorted(path, side * travel[p]))
+            if row < n_ok:
+                rot, pos = pose_errors(body[row], T[p], reach)
+                err[p] = max(float(rot), float(pos))
+                res[p] = float(df["residual"].iloc[row])
+        conds.append(df["condition"].to_numpy()[:n_ok].astype(float))
+        near |= bool(np.any(df["status"].to_numpy()[:n_ok] == "near-singular"))
+        stopped |= n_ok < len(ok)
+        tables.append(df if side > 0 else df.iloc[:0:-1])
+    df = pd.concat(tables[::-1], ignore_index=True) if len(tables) > 1 else tables[0]
+    cond = np.concatenate(conds)
     reached = err <= tol
     return Assembly(m, int(mob), idle, drive, dvals.copy(), travel, err, res, reached,
                     order_defect=order, branch_defect=bool(not reached.all()),
-                    dead_point=bool(n_ok < len(ok) or near),
-                    transmission=float(np.min(1.0 / cond)) if cond.size else 0.0, sweep=df)
+                    dead_point=bool(stopped or near),
+                    transmission=float(np.min(1.0 / cond)) if cond.size else 0.0, sweep=df,
+                    drive_point=point, drive_direction=direction)
+
+
+def _body_drive(m, T, c, reach, d=None):
+    """Drive ``m`` through a body coordinate: the virtual chain ground –P(d)– –P(e1)–
+    –P(e2)– –S– body at the body point c (position 1), its first slide the input (every
+    coordinate zero at position 1, so the chain closes there).  d defaults to the
+    direction in which c travels to position 2.  Returns ``(c, d, drive values (P,))``."""
+    moved = T[:, :3, :3] @ c + T[:, :3, 3] - c                  # c's displacement (P, 3)
+    if d is None:
+        n2 = float(np.linalg.norm(moved[1]))
+        if not n2 > 1e-9 * reach:
+            raise SynthesisError("drive: 'body': the drive point does not move from position "
+                                 f"1 to 2 (by {n2:.1e}); give drive_direction or drive a joint")
+        d = moved[1] / n2
+    e1 = np.cross(d, [1.0, 0, 0] if abs(d[0]) < 0.9 else [0, 1.0, 0])
+    e1 /= np.linalg.norm(e1)
+    e2 = np.cross(d, e1)
+    names = ["body_slide", "body_e1", "body_e2"]
+    m.add_link("body_V1")
+    m.add_link("body_V2")
+    m.add_link("body_V3")
+    chain = ["ground", "body_V1", "body_V2", "body_V3"]
+    for k, (name, z) in enumerate(zip(names, (d, e1, e2))):
+        x = e1 if k == 0 else d
+        m.add_joint(name, "P", chain[k], chain[k + 1],
+                    at=transform(np.stack([x, np.cross(z, x), z], -1), c))
+    m.add_joint("body_ball", "S", "body_V3", "body", at=transform(None, c))
+    m.add_input("body_slide")
+    return c, d, moved @ d
 
 
 def link_from_row(row) -> BinaryLink:

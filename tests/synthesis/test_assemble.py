@@ -145,7 +145,10 @@ def test_assemble_table_records_why_a_combination_is_not_a_mechanism():
         pytest.skip("fewer than two real CC links on this task")
     t = assemble_table(df, S)
     assert len(t) == len(df) * (len(df) - 1) // 2
-    assert t.reason.str.contains("C joint").all() and t["rank"].isna().all()   # no drive
+    # two CC links: 4 + 4 freedoms, 6 constraints — not a one-freedom mechanism
+    assert t.reason.str.contains("mobility 2").all() and t["rank"].isna().all()
+    t = assemble_table(df, S, drive="g1")
+    assert t.reason.str.contains("g1 is a C joint").all() and t["rank"].isna().all()
     with pytest.raises(SynthesisError, match="table"):
         assemble_table(df.to_dict(), S)
     with pytest.raises(SynthesisError, match="links"):
@@ -182,3 +185,76 @@ def test_rc_and_cc_links_of_an_rccc_loop_close_back_into_it():
     assert a.mobility == 1 and a.idle == 0
     assert a.reached.all() and np.all(a.pose_error < 1e-9)
     assert not a.order_defect and not a.branch_defect and not a.dead_point
+
+
+# ------------------------------------------------------------------ a 5-SS platform
+def _platform_poses(A, B, n, step, rng):
+    """Poses of the body of a 5-SS platform (ground centres A, body centres B at the
+    identity pose) moved along its one freedom, by scipy least squares on the five
+    sphere conditions and one body coordinate (independent of the engine): the body
+    point c travels ``step`` per pose along d, from small continuation steps.  Returns
+    the poses, the leg lengths, c and d."""
+    from scipy.optimize import least_squares
+    from scipy.spatial.transform import Rotation
+    radii = np.linalg.norm(B - A, axis=1)
+    c, d = B.mean(0), rng.normal(size=3)
+    d /= np.linalg.norm(d)
+
+    def pose(z):
+        T = np.eye(4)
+        T[:3, :3] = Rotation.from_rotvec(z[:3]).as_matrix()
+        T[:3, 3] = z[3:]
+        return T
+
+    def eqs(z, s):
+        T = pose(z)
+        Bw = B @ T[:3, :3].T + T[:3, 3]
+        return np.r_[np.linalg.norm(Bw - A, axis=1) - radii, d @ (T[:3, :3] @ c + T[:3, 3] - c) - s]
+    z, out = np.zeros(6), [np.eye(4)]
+    for k in range(1, n):
+        for s in np.linspace((k - 1) * step, k * step, 9)[1:]:
+            z = least_squares(eqs, z, args=(s,), xtol=1e-15, ftol=1e-15, gtol=1e-15).x
+        assert np.abs(eqs(z, k * step)).max() < 1e-12
+        out.append(pose(z))
+    return out, radii, c, d
+
+
+def test_five_ss_platform_is_driven_through_its_positions_by_a_body_coordinate():
+    """A 5-SS platform has one freedom and no joint to drive: assemble drives it by a body
+    coordinate (a virtual P–P–P–S chain) and passes the platform's own positions in
+    order, every leg keeping its length along the whole sweep."""
+    from synthesis import Screw
+    rng = np.random.default_rng(3)
+    A = rng.normal(size=(5, 3)) * 2.0
+    B = rng.normal(size=(5, 3)) + [0, 0, 3.0]
+    T, radii, c, d = _platform_poses(A, B, 5, 0.08, rng)
+    screws = [Screw.from_matrix(t) for t in T[1:]]
+    z = np.zeros(len(T))
+    legs = [BinaryLink("SS", Line(np.array([0, 0, 1.0]), a), Line(np.array([0, 0, 1.0]), b),
+                       np.nan, np.nan, z, z, z, z, 0.0, {}) for a, b in zip(A, B)]
+    # no drivable joint: the body coordinate the positions were made along
+    a = assemble(legs, screws, drive_point=c, drive_direction=d)
+    assert a.drive == "body" and a.mobility - a.idle == 1 and a.idle == 5
+    assert np.allclose(a.drive_values, 0.08 * np.arange(5), atol=1e-12)
+    assert a.reached.all() and np.all(a.pose_error < 1e-9)
+    assert not a.order_defect and not a.branch_defect and not a.dead_point
+    m, sweep = a.mechanism, a.sweep
+    pose = m.solve(sweep["input:body_slide"].to_numpy())
+    body = pose.kinematics(twists=False)["link"][:, m.links.index("body")]
+    Bw = np.einsum("nij,kj->nki", body[:, :3, :3], B) + body[:, None, :3, 3]
+    assert np.abs(np.linalg.norm(Bw - A, axis=2) - radii).max() < 1e-9
+    # the same platform with position 1 in the middle of the task: the slide drive sweeps
+    # forward to the positions ahead of it and backward to those behind (out of order)
+    order = [2, 3, 1, 4, 0]
+    T2 = T[order[0]]
+    Tr = [T[k] @ np.linalg.inv(T2) for k in order]
+    B2 = B @ T2[:3, :3].T + T2[:3, 3]
+    legs2 = [BinaryLink("SS", Line(np.array([0, 0, 1.0]), a), Line(np.array([0, 0, 1.0]), b),
+                        np.nan, np.nan, z, z, z, z, 0.0, {}) for a, b in zip(A, B2)]
+    b = assemble(legs2, [Screw.from_matrix(t) for t in Tr[1:]],
+                 drive_point=T2[:3, :3] @ c + T2[:3, 3], drive_direction=d)
+    assert np.allclose(b.travel, [0, 0.08, -0.08, 0.16, -0.16], atol=1e-12)
+    assert b.reached.all() and np.all(b.pose_error < 1e-9) and not b.dead_point
+    assert b.order_defect and not b.branch_defect
+    with pytest.raises(SynthesisError, match="drive: g1 is a S joint"):
+        assemble(legs, screws, drive="g1")

@@ -25,37 +25,73 @@ from __future__ import annotations
 
 import numpy as np
 
-from .binary import BinaryLink, _angles, _check_rotations, _finish, _same, _system, _task
+from .binary import BinaryLink, _angles, _check_rotations, _same, _system, _task
 from .errors import SynthesisError
 from .rmep import solve_bilinear
 from .screw import Line
 from .validate import integer, line as _line, number, screw as _screw, unit, vec3
+from .verify import pose_errors
 
-__all__ = ["rc_links", "cr_links", "cc_links", "cc_direction_residual", "cc_directions"]
+__all__ = ["rc_links", "cr_links", "fixed_direction_links", "cc_links", "cc_direction_residual",
+           "cc_directions"]
 
 
 def _solve_square(task, kinds, pitches, g, *, fixed_point=None, what: str):
     """The unique link for a given fixed direction ``g`` (3 positions, one C joint, or CC
     with the fixed point given): w from the constant-angle condition, then 6 linear
-    equations in 6 unknowns."""
+    equations in 6 unknowns (:func:`_square_links` for one direction, raising)."""
+    out = _square_links(task, kinds, pitches, g[None], fixed_point=fixed_point, what=what)[0]
+    if isinstance(out, SynthesisError):
+        raise out
+    return out
+
+
+def _square_links(task, kinds, pitches, G, *, fixed_point=None, what: str):
+    """The unique link of each fixed direction ``G (m, 3)`` (unit) through three positions
+    (one C joint, or CC with ``fixed_point`` given), all solved in one batch: a list of m
+    BinaryLink or SynthesisError (why that direction gives no link)."""
     R = task.R
-    a = np.einsum("mji,j->mi", R - np.eye(3), g)
-    w = np.cross(a[0], a[1])
-    if np.linalg.norm(w) < 1e-9:
-        raise SynthesisError(f"fixed_direction: degenerate: the moving axis direction is not "
-                             f"determined by {np.round(g, 6)} (it is perpendicular to both "
-                             "relative rotations' image directions, e.g. along a screw axis)")
-    w /= np.linalg.norm(w)
-    return _from_directions(task, kinds, pitches, g[None], w[None], fixed_point=fixed_point,
-                            what=what)[0]
+    a = np.einsum("kji,nj->nki", R - np.eye(3), G)                  # (m, 2, 3)
+    w = np.cross(a[:, 0], a[:, 1])
+    nw = np.linalg.norm(w, axis=1)
+    out = [None] * len(G)
+    ok = []
+    for n in range(len(G)):
+        if nw[n] < 1e-9:
+            out[n] = SynthesisError(
+                f"fixed_direction: degenerate: the moving axis direction is not determined by "
+                f"{np.round(G[n], 6)} (it is perpendicular to both relative rotations' image "
+                "directions, e.g. along a screw axis)")
+        else:
+            ok.append(n)
+    if ok:
+        links = _direction_links(task, kinds, pitches, G[ok], w[ok] / nw[ok, None],
+                                 fixed_point=fixed_point, what=what)
+        for n, lk in zip(ok, links):
+            out[n] = lk
+    return out
 
 
 def _from_directions(task, kinds, pitches, g, w, *, fixed_point=None, near_point=None,
                      what: str, params=None):
+    """Links for direction pairs ``g, w (N, 3)`` (:func:`_direction_links`), raising the
+    first pair's error."""
+    out = _direction_links(task, kinds, pitches, g, w, fixed_point=fixed_point,
+                           near_point=near_point, what=what, params=params)
+    for lk in out:
+        if isinstance(lk, SynthesisError):
+            raise lk
+    return out
+
+
+def _direction_links(task, kinds, pitches, g, w, *, fixed_point=None, near_point=None,
+                     what: str, params=None):
     """Links for direction pairs ``g, w (N, 3)`` that satisfy the constant-angle condition
     at every position, by solving the (square) translation equations; with ``near_point``
     (normalised) the equations have a one-parameter family of solutions and the fixed
-    axis nearest that point is taken."""
+    axis nearest that point is taken.  A list of N BinaryLink or SynthesisError (why that
+    pair gives no link: parallel axes or singular translation equations); the links'
+    residuals are computed in one batch."""
     R, t = task.R, task.t
     th, ph, Gm, sin_gw = _angles(g, w, R)
     fp = None if fixed_point is None else fixed_point
@@ -63,15 +99,17 @@ def _from_directions(task, kinds, pitches, g, w, *, fixed_point=None, near_point
     out = []
     for n in range(len(g)):
         if sin_gw[n] < 1e-9:
-            raise SynthesisError(f"{what}: degenerate: the fixed and moving axes are parallel "
-                                 "(the link's axes are then not determined)")
+            out.append(SynthesisError(f"{what}: degenerate: the fixed and moving axes are "
+                                      "parallel (the link's axes are then not determined)"))
+            continue
         _, s, Vt = np.linalg.svd(A[n])
         free = A[n].shape[1] - A[n].shape[0] if near_point is not None else 0
         if A[n].shape[0] < A[n].shape[1] - free or s[-1] < 1e-9 * s[0]:
-            raise SynthesisError(f"{what}: degenerate: the translation equations are singular "
-                                 f"(condition {s[0] / max(s[-1], 1e-300):.1e}); a relative "
-                                 "screw is a pure rotation about an axis meeting the joint axes, "
-                                 "or the axes are parallel")
+            out.append(SynthesisError(
+                f"{what}: degenerate: the translation equations are singular (condition "
+                f"{s[0] / max(s[-1], 1e-300):.1e}); a relative screw is a pure rotation about "
+                "an axis meeting the joint axes, or the axes are parallel"))
+            continue
         x = np.linalg.lstsq(A[n], rhs[n], rcond=None)[0]
         if free:
             # the family x + s·v (v the null vector): the fixed axis nearest near_point
@@ -94,9 +132,29 @@ def _from_directions(task, kinds, pitches, g, w, *, fixed_point=None, near_point
         else:
             a = pitches[0] * th[n]
         b = x[k:k + m] if kinds[1] == "C" else pitches[1] * ph[n]
-        out.append(_finish(task, kinds, pitches, g[n], cg, w[n], cw, th[n], a, ph[n], b,
-                           params or {}))
+        out.append(_unfinished(task, kinds, pitches, g[n], cg, w[n], cw, th[n], a, ph[n], b,
+                               params or {}))
+    links = [lk for lk in out if not isinstance(lk, SynthesisError)]
+    if links:
+        # the residuals of _finish, for all links in one pose_errors call
+        rot, pos = pose_errors(np.stack([lk.poses() for lk in links]), task.T, task.reach)
+        for lk, r in zip(links, np.maximum(rot.max(1), pos.max(1)).tolist()):
+            lk.residual = r
     return out
+
+
+def _unfinished(task, kinds, pitches, g, cg, w, cw, th, a, ph, b, params) -> BinaryLink:
+    """The link of :func:`synthesis.binary._finish` (user coordinates from normalised
+    directions, points and joint values at positions 2…n, pitches normalised) without its
+    residual, which the caller computes for all links at once."""
+    L, c = task.L, task.c
+    G = Line(g, cg * L + c).canonical()
+    W = Line(w, cw * L + c).canonical(G)
+    z = np.zeros(1)
+    pg = np.nan if kinds[0] == "C" else pitches[0] * L
+    pw = np.nan if kinds[1] == "C" else pitches[1] * L
+    return BinaryLink("".join(kinds), G, W, float(pg), float(pw), np.r_[z, th], np.r_[z, a * L],
+                      np.r_[z, ph], np.r_[z, b * L], 0.0, dict(params))
 
 
 def _types(kind_fixed, kind_moving, pf, pm):
@@ -132,14 +190,7 @@ def rc_links(s12, s13, fixed_direction, *, fixed_pitch: float = 0.0) -> list[Bin
         Bad input (naming it), coincident positions, a pure-translation relative
         screw, or a direction for which the link degenerates (named).
     """
-    task = _task([_screw(s12, "s12"), _screw(s13, "s13")], "s12, s13", (3,))
-    g = unit(fixed_direction, "fixed_direction")
-    pf = number(fixed_pitch, "fixed_pitch", unit_="length/rad")
-    _check_rotations(task, "s12, s13")
-    types = _types("R", "C", pf, 0)
-    link = _solve_square(task, types, (pf / task.L, 0.0), g, what="fixed_direction")
-    link.parameters = {"fixed_direction": g.copy()}
-    return [link]
+    return _one(fixed_direction_links("RC", s12, s13, [fixed_direction], fixed_pitch))
 
 
 def cr_links(s12, s13, fixed_direction, *, moving_pitch: float = 0.0) -> list[BinaryLink]:
@@ -163,14 +214,68 @@ def cr_links(s12, s13, fixed_direction, *, moving_pitch: float = 0.0) -> list[Bi
     SynthesisError
         As :func:`rc_links`.
     """
+    return _one(fixed_direction_links("CR", s12, s13, [fixed_direction], moving_pitch))
+
+
+def _one(results):
+    """The one direction's result of :func:`fixed_direction_links`, raising its error."""
+    if isinstance(results[0], SynthesisError):
+        raise results[0]
+    return results[0]
+
+
+def fixed_direction_links(kinds: str, s12, s13, fixed_directions, pitch: float = 0.0) -> list:
+    """:func:`rc_links` (``kinds`` ``"RC"``) or :func:`cr_links` (``"CR"``) for several
+    fixed-axis directions at once: one task, one batched solve.
+
+    Parameters
+    ----------
+    kinds : str
+        ``"RC"`` (the R or H joint fixed) or ``"CR"`` (the C joint fixed).
+    s12, s13 : Screw
+        Displacements from position 1 to positions 2 and 3.
+    fixed_directions : array_like, shape (m, 3)
+        Unit directions of the fixed axis.
+    pitch : float
+        Pitch of the R/H joint (length / rad): 0 for R, else H.
+
+    Returns
+    -------
+    list of m entries: ``[BinaryLink]`` (as rc_links / cr_links return) or the
+    SynthesisError of that direction.
+
+    Raises
+    ------
+    SynthesisError
+        Bad input (naming it), coincident positions or a pure-translation relative screw
+        (the task's errors, common to every direction).
+    """
+    if kinds not in ("RC", "CR"):
+        raise SynthesisError(f"kinds: expected 'RC' or 'CR', got {kinds!r}")
     task = _task([_screw(s12, "s12"), _screw(s13, "s13")], "s12, s13", (3,))
-    g = unit(fixed_direction, "fixed_direction")
-    pm = number(moving_pitch, "moving_pitch", unit_="length/rad")
+    out, G = [], []
+    for d in fixed_directions:
+        try:
+            G.append(unit(d, "fixed_direction"))
+            out.append(None)
+        except SynthesisError as e:
+            out.append(e)
+    if kinds == "RC":
+        p = number(pitch, "fixed_pitch", unit_="length/rad")
+        types, pn = _types("R", "C", p, 0), (p / task.L, 0.0)
+    else:
+        p = number(pitch, "moving_pitch", unit_="length/rad")
+        types, pn = _types("C", "R", 0, p), (0.0, p / task.L)
     _check_rotations(task, "s12, s13")
-    types = _types("C", "R", 0, pm)
-    link = _solve_square(task, types, (0.0, pm / task.L), g, what="fixed_direction")
-    link.parameters = {"fixed_direction": g.copy()}
-    return [link]
+    ok = [n for n, e in enumerate(out) if e is None]
+    links = _square_links(task, types, pn, np.array(G).reshape(-1, 3),
+                          what="fixed_direction") if G else []
+    for n, g, lk in zip(ok, G, links):
+        if not isinstance(lk, SynthesisError):
+            lk.parameters = {"fixed_direction": g.copy()}
+            lk = [lk]
+        out[n] = lk
+    return out
 
 
 def cc_direction_residual(screws, fixed_direction) -> float:
@@ -383,15 +488,9 @@ def _cc5(task, tol):
     w /= np.linalg.norm(w, axis=1, keepdims=True)
     out: list[BinaryLink] = []
     rejected = 0
-    for k in range(len(g)):
-        try:
-            link = _from_directions(task, "CC", (0.0, 0.0), g[k:k + 1], w[k:k + 1],
-                                    what="screws")[0]
-        except SynthesisError:
-            rejected += 1        # parallel axes or singular translation equations: no CC link
-            continue
-        if link.residual > tol:
-            rejected += 1
+    for link in _direction_links(task, "CC", (0.0, 0.0), g, w, what="screws") if len(g) else []:
+        if isinstance(link, SynthesisError) or link.residual > tol:
+            rejected += 1   # parallel axes or singular translation equations: no CC link
         elif not any(_same(link, o, task.L) for o in out):
             out.append(link)
     return out, {"complex": int(good.sum()), "real": int((real & good).sum()),

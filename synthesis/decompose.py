@@ -18,6 +18,15 @@ is enumerated: the main positions (always containing position 1), every solution
 main link (and every value of its free parameters on the user's grid), every transition
 position s, every root of the transition, both arrangements where they apply.
 
+Enumeration.  The variants are listed first (main-link solutions × transition positions ×
+transition angles); the transition problems they pose (distinct per main link, transition
+position and angle) are solved in one batched call per transition kind
+(:func:`synthesis.transition.transition_joints`), and the table's columns are built as
+arrays (axes canonicalised and oriented for all variants at once) before the regular
+variants are verified by the engine in one call.  The RC, CR, HC, CH main links of a
+direction grid are solved in one batch per main-position set
+(:func:`synthesis.cylindric.fixed_direction_links`).
+
 Free parameters (keyword choices of :func:`synthesis.enumerate_dyads`; a scalar/one
 vector or a grid; the table has a column per parameter):
 
@@ -39,19 +48,18 @@ from __future__ import annotations
 
 import functools
 import itertools
-import math
 
 import numpy as np
 import pandas as pd
 
 from closure import Mechanism
 
-from .binary import BinaryLink, _fibonacci, _screw_matrix
+from .binary import BinaryLink, _fibonacci
 from .errors import SynthesisError
-from .screw import Line
+from .screw import Line, Screw
 from .spherical import task_frame
-from .transition import TRANSITION_POSITIONS, transition_joint
-from .twopos import two_position_link
+from .transition import TRANSITION_POSITIONS, _screw_matrix, transition_joints
+from .twopos import two_position_links
 from .validate import array, task_scale
 from .verify import _frames_of, in_chunks, pose_errors
 
@@ -181,11 +189,10 @@ def _pitches(family, pitch):
 
 
 # ------------------------------------------------------------------ main links
-def _main_links(kinds, pitches, T, reach, choices):
-    """Main-link solutions through the positions T (n_b, 4, 4) (T[0] = I): a list of
-    (BinaryLink or None, parameters dict, reason)."""
-    from .screw import Screw
-    scr = [Screw.from_matrix(t) for t in T[1:]]
+def _main_links(kinds, pitches, T, scr, reach, choices):
+    """Main-link solutions through the positions T (n_b, 4, 4) (T[0] = I), ``scr`` their
+    screws from position 1 (``Screw.from_matrix`` of T[1:]): a list of (BinaryLink or None,
+    parameters dict, reason)."""
     pf, pm = pitches
     out = []
 
@@ -208,27 +215,39 @@ def _main_links(kinds, pitches, T, reach, choices):
         attempt(lambda: helical_links(*scr, fixed_pitch=0.0 if kinds[0] == "R" else pf,
                                       moving_pitch=0.0 if kinds[1] == "R" else pm), {})
     elif kinds in ("RC", "HC", "CR", "CH"):
-        from .cylindric import cr_links, rc_links
-        for g in choices["fixed_direction"]:
-            if kinds[1] == "C":
-                fn = (lambda g=g: rc_links(*scr, g, fixed_pitch=0.0 if kinds[0] == "R" else pf))
+        from .cylindric import fixed_direction_links
+        G = choices["fixed_direction"]
+        try:                                       # every direction of the grid at once
+            res = fixed_direction_links(
+                "RC" if kinds[1] == "C" else "CR", *scr, G,
+                (0.0 if kinds[0] == "R" else pf) if kinds[1] == "C" else
+                (0.0 if kinds[1] == "R" else pm))
+        except SynthesisError as e:
+            res = [e] * len(G)
+        for g, r in zip(G, res):
+            if isinstance(r, SynthesisError):
+                out.append((None, {"fixed_direction": g}, str(r)))
             else:
-                fn = (lambda g=g: cr_links(*scr, g, moving_pitch=0.0 if kinds[1] == "R" else pm))
-            attempt(fn, {"fixed_direction": g})
+                out.extend((_oriented(lk), {"fixed_direction": g}, "") for lk in r)
     elif kinds == "CC":
         from .cylindric import cc_links
         attempt(lambda: cc_links(scr), {})
     else:                                                          # two positions with a P
         slides = choices["prismatic_slide"] if "C" in kinds else [None]
         hp = pm if kinds[1] == "H" else pf if kinds[0] == "H" else 0.0
-        for d in choices["slide_direction"]:
-            for a in slides:
-                params = {"slide_direction": d}
-                if a is not None:
-                    params["prismatic_slide"] = float(a)
-                attempt(lambda d=d, a=a: [two_position_link(kinds, T[1], slide_direction=d,
-                                                            pitch=hp, prismatic_slide=a,
-                                                            reach=reach)], params)
+        grid = [(dv, a) for dv in choices["slide_direction"] for a in slides]
+        # every (slide direction, prismatic slide) of the grid at once
+        links = two_position_links(kinds, T[1], slide_directions=[g[0] for g in grid],
+                                   pitch=hp, prismatic_slides=[g[1] for g in grid],
+                                   reach=reach)
+        for (dv, a), lk in zip(grid, links):
+            params = {"slide_direction": dv}
+            if a is not None:
+                params["prismatic_slide"] = float(a)
+            if isinstance(lk, SynthesisError):
+                out.append((None, params, str(lk)))
+            else:
+                out.append((_oriented(lk), params, ""))
     return out
 
 
@@ -239,49 +258,20 @@ def _from_rr(lk) -> BinaryLink:
 
 
 # ------------------------------------------------------------------ verification
-@in_chunks
 def verify_dyads(chains, targets, length: float) -> np.ndarray:
     """Drive three-joint chains (R, P, C, H) through their joint values with the closure
-    engine (all in one mechanism, one batched call) and return each chain's largest pose
-    error (rad, or translation / ``length``).
+    engine (all in one bulk evaluation, :func:`synthesis.verify.verify_driven`) and return
+    each chain's largest pose error (rad, or translation / ``length``).
 
     chains : list of (types (3 letters), lines (3 Line), pitches (3), values (P, 3, 2):
     angle (rad) and slide (length) of every joint at every position).
     """
-    if not chains:
-        return np.zeros(0)
-    m = Mechanism()
-    frames = _frames_of([ln for c in chains for ln in c[1]])
-    cols = []
-    for v, (types, lines, pitches, vals) in enumerate(chains):
-        names = ["ground", f"A{v}", f"B{v}", f"body{v}"]
-        for n in names[1:]:
-            m.add_link(n)
-        for k, t in enumerate(types):
-            jn = f"v{v}j{k + 1}"
-            m.add_joint(jn, t, names[k], names[k + 1], at=frames[3 * v + k], validate=False,
-                        pitch=float(pitches[k]) if t == "H" else None)
-            m.add_input(jn, 0)
-            if t == "C":
-                m.add_input(jn, 1)
-            cols.append(vals[:, k, 1] if t == "P" else vals[:, k, 0])
-            if t == "C":
-                cols.append(vals[:, k, 1])
-    pose = m.solve(np.stack(cols, 1), continuation=False)
-    link = pose.kinematics(twists=False)["link"]
-    bodies = link[:, [m.links.index(f"body{v}") for v in range(len(chains))]]
-    rot, pos = pose_errors(bodies, np.asarray(targets, float)[:, None], length)
-    return np.maximum(rot.max(0), pos.max(0))
+    from .verify import verify_driven
+    return verify_driven([(t, lines, vals, pitches) for t, lines, pitches, vals in chains],
+                         targets, length)
 
 
 # ------------------------------------------------------------------ enumeration
-def _canonical(lines):
-    out = [lines[0].canonical()]
-    for ln in lines[1:]:
-        out.append(ln.canonical(out[-1]))
-    return out
-
-
 def _flipped(u) -> bool:
     """Orientation rule of every axis in the table: its largest component (the first of
     equal ones) is positive."""
@@ -290,6 +280,12 @@ def _flipped(u) -> bool:
         return bool(u[np.argmax(np.abs(u) - 1e-12 * np.arange(3))] < 0)
     b = [abs(a[0]), abs(a[1]) - 1e-12, abs(a[2]) - 2e-12]
     return a[max(range(3), key=b.__getitem__)] < 0
+
+
+def _flip_signs(u) -> np.ndarray:
+    """:func:`_flipped` of directions ``u (n, 3)`` as signs ``(n,)``: −1 where flipped."""
+    i = np.argmax(np.abs(u) - 1e-12 * np.arange(3), axis=-1)
+    return np.where(np.take_along_axis(u, i[:, None], 1)[:, 0] < 0, -1.0, 1.0)
 
 
 def _oriented(lk: BinaryLink) -> BinaryLink:
@@ -307,10 +303,22 @@ def _oriented(lk: BinaryLink) -> BinaryLink:
     return out
 
 
-def _line_point_guard(ln: Line, reach: float) -> bool:
-    # plain floats: called three times per variant, numpy's reductions cost more than this
-    v = ln.direction.tolist() + ln.point.tolist()
-    return all(map(math.isfinite, v)) and max(map(abs, v[3:])) < 1e8 * reach
+def _canonical_points(U, P):
+    """Canonical points ``(3, n, 3)`` of chains of three lines (directions ``U``, points
+    ``P``, ``(3, n, 3)``), as :meth:`Line.canonical`: joint 1 the foot from the origin, the
+    others the foot of the common normal with the previous joint (parallel: the
+    perpendicular foot of the previous joint's point)."""
+    P = P.copy()
+    P[0] = P[0] + np.einsum("ij,ij->i", -P[0], U[0])[:, None] * U[0]
+    for k in (1, 2):
+        u, v, w = U[k - 1], U[k], P[k - 1] - P[k]
+        b = np.einsum("ij,ij->i", u, v)
+        den = 1 - b * b
+        d, e = np.einsum("ij,ij->i", u, w), np.einsum("ij,ij->i", v, w)
+        par = den < 1e-12
+        t = np.where(par, e, (e - b * d) / np.where(par, 1.0, den))
+        P[k] = P[k] + t[:, None] * v
+    return P
 
 
 def decomposed_dyads(family: str, screws, *, _verify: bool = True, **choices) -> pd.DataFrame:
@@ -319,7 +327,12 @@ def decomposed_dyads(family: str, screws, *, _verify: bool = True, **choices) ->
     the table's columns and the keyword choices.
 
     ``_verify=False`` (internal: kinematic inversion verifies the reversed chains itself)
-    leaves the engine check out: every residual is NaN."""
+    leaves the engine check out: every residual is NaN.
+
+    The enumeration lists the variants (main link solutions × transition positions ×
+    transition angles) first, then solves the transition joints of all of them in one
+    batched call per transition kind (:func:`synthesis.transition.transition_joints`) and
+    builds the table's columns as arrays."""
     T, N, arr, reach = task_positions(family, screws, arrangements)
     unknown = set(choices) - set(FREE_PARAMETERS)
     if unknown:
@@ -342,67 +355,94 @@ def decomposed_dyads(family: str, screws, *, _verify: bool = True, **choices) ->
             raise SynthesisError(f"{name}: not a free parameter of family {family} through "
                                  f"{N} positions (its free parameters: "
                                  f"{', '.join(sorted(used)) or 'none'})")
-    rows, chains = [], []
-    cache, rel, trans = {}, {}, {}
+    y_kind = family[2]
+    scr = [None] + [Screw.from_matrix(t) for t in T[1:]]      # each position's screw, once
+    # ---- 1. the variants' slots (one per main link solution, transition position and
+    # transition angle: rows (group, transition position index, main-link entry,
+    # transition-angle index or −1)) and the main links
+    groups, blocks = [], []             # groups: (name, main, x, Pm, rest)
+    entries, entry_of = [], {}          # main-link solutions (link or None, params, reason)
+    cache = {}
     for name, main, x, n_b, k in arr:
         mp = [pitches[1], pitches[2]] if name == "a" else [pitches[0], pitches[2]]
-        xp = pitches[0] if name == "a" else pitches[1]
+        n_ang = len(ch["transition_angle"]) if (x, y_kind) == ("R", "C") else 1
+        # (transition position index, angle index) of one main-link solution, s first
+        sa = np.stack([np.repeat(np.arange(n_b), n_ang), np.tile(np.arange(n_ang), n_b)], 1)
+        if (x, y_kind) != ("R", "C"):
+            sa[:, 1] = -1
         for others in itertools.combinations(range(1, N), n_b - 1):
             Pm = (0,) + others
-            rest = [i for i in range(N) if i not in Pm]
-            pm_text = tuple(i + 1 for i in Pm)
+            rest = tuple(i for i in range(N) if i not in Pm)
             key = (main, tuple(mp), Pm)
             if key not in cache:
-                cache[key] = _main_links(main, mp, T[list(Pm)], reach, ch)
-            for li, (lk, params, reason) in enumerate(cache[key]):
-                for si, s in enumerate(Pm):
-                    angles = ch["transition_angle"] if (x, family[2]) == ("R", "C") else [None]
-                    for ang in angles:
-                        p = dict(params)
-                        if ang is not None:
-                            p["transition_angle"] = float(ang)
-                        order = (f"{main} through {pm_text}; {x} ({'J1' if name == 'a' else 'J2'})"
-                                 f" carries position {s + 1} to {tuple(i + 1 for i in rest)}")
-                        base = dict(family=family, order=order, arrangement=name, mechanism=name,
-                                    main_link=main, main_positions=str(pm_text),
-                                    transition=f"{x}{family[2]}", transition_position=s + 1)
-                        if lk is None:
-                            rows.append(_failed(base, family, pitches, p, reason))
-                            continue
-                        # the transition depends on the main link, s and the angle only:
-                        # arrangements a and b with the same main link and transition kind
-                        # (J1 = J2) share it
-                        tkey = (key, li, x, s, ang)
-                        if tkey not in trans:
-                            try:
-                                if (s, pm_text) not in rel:
-                                    rel[s, pm_text] = T[rest] @ np.linalg.inv(T[s])
-                                trans[tkey] = _transitions(lk, family[2], pitches[2], x, T, s,
-                                                           si, rest, reach, ang,
-                                                           D=rel[s, pm_text])
-                            except SynthesisError as e:
-                                trans[tkey] = e
-                        trs = trans[tkey]
-                        if isinstance(trs, SynthesisError):
-                            rows.append(_failed(base, family, pitches, p, str(trs)))
-                            continue
-                        if not trs:
-                            rows.append(_failed(base, family, pitches, p,
-                                                "no real transition joint"))
-                        for tr in trs:
-                            row, chain = _variant(base, name, lk, tr, family, pitches, xp, p,
-                                                  Pm, si, rest, N, reach)
-                            rows.append(row)
-                            if chain is not None:
-                                chains.append((len(rows) - 1, chain))
-    if _verify:
-        res = verify_dyads([c for _, c in chains], T, reach)
-        for (i, _), r in zip(chains, res):
-            rows[i]["residual"] = float(r)
-    for v, row in enumerate(rows, start=1):
-        row["variant"] = v
-    df = pd.DataFrame(rows)
-    return _order_columns(df)
+                cache[key] = _main_links(main, mp, T[list(Pm)], [scr[i] for i in others],
+                                         reach, ch)
+            ids = []
+            for li, e in enumerate(cache[key]):
+                if (key, li) not in entry_of:
+                    entry_of[key, li] = len(entries)
+                    entries.append(e)
+                ids.append(entry_of[key, li])
+            blk = np.empty((len(ids) * len(sa), 4), np.int64)
+            blk[:, 0] = len(groups)
+            blk[:, 1:4:2] = np.tile(sa, (len(ids), 1))
+            blk[:, 2] = np.repeat(ids, len(sa))
+            blocks.append(blk)
+            groups.append((name, main, x, Pm, rest))
+    slot = np.concatenate(blocks)
+    # ---- 2. the distinct transition problems, solved in one batch per transition kind: a
+    # problem depends on the main link, s and the angle only (arrangements a and b with
+    # the same main link and transition kind, J1 = J2, share it)
+    g_x = np.array(["RC".index(g[2]) for g in groups])
+    g_pm, g_rest = _padded([g[3] for g in groups]), _padded([g[4] for g in groups])
+    linked = np.array([e[0] is not None for e in entries])[slot[:, 2]]
+    keys = np.stack([slot[:, 2], g_x[slot[:, 0]], g_pm[slot[:, 0], slot[:, 1]], slot[:, 3]], 1)
+    ji = np.full(len(slot), -1)
+    n_jobs = 0
+    if linked.any():
+        jkeys, first, inv = np.unique(keys[linked], axis=0, return_index=True,
+                                      return_inverse=True)
+        ji[linked] = inv.reshape(-1)
+        n_jobs = len(jkeys)
+        j_group = slot[np.flatnonzero(linked)[first], 0]
+    # (one padding entry at the end: slots without a transition problem index it as −1)
+    job_err = np.full(n_jobs + 1, "", dtype=object)
+    job_start, job_count = np.zeros(n_jobs + 1, np.int64), np.zeros(n_jobs + 1, np.int64)
+    trs = {}
+    for xc in np.unique(jkeys[:, 1]) if n_jobs else []:
+        ids = np.flatnonzero(jkeys[:, 1] == xc)
+        x = "RC"[xc]
+        ang = jkeys[ids, 3]
+        trs[x] = tr = _transitions_of(
+            x, y_kind, pitches[2], jkeys[ids, 0], jkeys[ids, 2],
+            g_rest[j_group[ids], :TRANSITION_POSITIONS[x, y_kind]], entries, T, reach,
+            None if ang[0] < 0 else np.asarray(ch["transition_angle"], float)[ang])
+        job_err[ids] = tr.error
+        cnt = np.bincount(tr.owner, minlength=len(ids))
+        job_count[ids] = cnt
+        job_start[ids] = np.cumsum(cnt) - cnt
+    # ---- 3. the rows: a slot gives one row per transition joint, or one failed row
+    e_reason = np.array([e[2] for e in entries] + [""], dtype=object)
+    err = np.where(linked, job_err[ji], e_reason[slot[:, 2]])
+    count = np.where(linked, job_count[ji], 0)
+    err = np.where(linked & (err == "") & (count == 0), "no real transition joint", err)
+    ok = err == ""
+    per = np.where(ok, count, 1)
+    row_slot = np.repeat(np.arange(len(slot)), per)
+    nrow = len(row_slot)
+    first = np.cumsum(per) - per
+    row_tr = np.where(ok[row_slot], job_start[ji[row_slot]] + np.arange(nrow) - first[row_slot],
+                      -1)
+    row_ok = ok[row_slot]
+    rs = slot[row_slot]
+    return _table(family, N, T, reach, pitches, groups, entries, trs, rs, row_tr, row_ok,
+                  err[row_slot], ch["transition_angle"], _verify)
+
+
+def _padded(seqs) -> np.ndarray:
+    """Integer sequences as the rows of an array, padded with −1 to the longest."""
+    n = max(map(len, seqs))
+    return np.array([tuple(s) + (-1,) * (n - len(s)) for s in seqs], dtype=np.int64)
 
 
 def _used_parameters(family, arr):
@@ -419,57 +459,194 @@ def _used_parameters(family, arr):
     return used
 
 
-def _moved(ln: Line, T) -> Line:
-    """The line moved by the rigid transform T (no re-validation)."""
-    R = T[:3, :3]
-    return Line._exact(R @ ln.direction, R @ ln.point + T[:3, 3])
+def _transitions_of(x, y_kind, y_pitch, entry, s, rest, entries, T, reach, angle):
+    """The transition joints of kind ``x`` of the problems (main-link ``entry`` (m,),
+    transition position ``s`` (m,), remaining positions ``rest`` (m, k), J3's
+    rotation ``angle`` (m,) or None) in one :func:`transition_joints` call: J3's axis moved
+    to the transition position s, the displacements ``T_l T_s⁻¹`` to the remaining
+    positions."""
+    ue, inv = np.unique(entry, return_inverse=True)
+    md = np.stack([entries[i][0].moving_axis.direction for i in ue])[inv]
+    mpt = np.stack([entries[i][0].moving_axis.point for i in ue])[inv]
+    Rs, ts = T[s, :3, :3], T[s, :3, 3]
+    # T_l T_s⁻¹ once per distinct (s, remaining positions)
+    sr, inv = np.unique(np.column_stack([s, rest]), axis=0, return_inverse=True)
+    D = np.stack([T[r[1:]] @ np.linalg.inv(T[r[0]]) for r in sr])[inv.reshape(-1)]
+    return transition_joints(x, y_kind, np.einsum("nij,nj->ni", Rs, md),
+                             np.einsum("nij,nj->ni", Rs, mpt) + ts, y_pitch, D, reach,
+                             angle=angle)
 
 
-def _transitions(lk: BinaryLink, y_kind, y_pitch, x, T, s, si, rest, reach, ang, D=None):
-    Ts = T[s]
-    y_line = _moved(lk.moving_axis, Ts)
-    if D is None:                                 # T_l T_s⁻¹ (the caller may pass it cached)
-        D = T[rest] @ np.linalg.inv(Ts)
-    return transition_joint(x, y_kind, y_line, y_pitch, D, reach, angle=ang)
+def _table(family, N, T, reach, pitches, groups, entries, trs, rs, row_tr, row_ok,
+           reason, angle_grid_, verify) -> pd.DataFrame:
+    """The table, its columns built as arrays.
+
+    Parameters
+    ----------
+    groups : list of (arrangement, main link kinds, transition kind, main positions,
+        remaining positions)
+    entries : list of (BinaryLink or None, parameters, reason): the main-link solutions
+    trs : dict transition kind → Transitions (the solved transition problems)
+    rs : numpy.ndarray of int, shape (n, 4)
+        Each row's group, transition position (index into the group's main positions),
+        main-link entry and transition-angle index (−1: none).
+    row_tr : numpy.ndarray of int, shape (n,)
+        Each regular row's joint in ``trs`` of its group's transition kind.
+    row_ok : numpy.ndarray of bool, shape (n,)
+        The rows with a main link and a transition joint (regular unless degenerate).
+    reason : numpy.ndarray of object, shape (n,)
+        Why a row is not regular ("" for the regular ones).
+    angle_grid_ : array_like
+        The transition angles (rad) the angle indices point into.
+    verify : bool
+        Drive the regular rows with the closure engine (the residual column).
+    """
+    n = len(rs)
+    gi, si, ei, ai = rs[:, 0], rs[:, 1], rs[:, 2], rs[:, 3]
+    cols = {}
+    # base columns: per group and transition position
+    g_name = np.array([g[0] for g in groups] + [""], dtype=object)
+    g_main = np.array([g[1] for g in groups] + [""], dtype=object)
+    g_pm = np.array([str(tuple(i + 1 for i in g[3])) for g in groups] + [""], dtype=object)
+    g_tr = np.array([f"{g[2]}{family[2]}" for g in groups] + [""], dtype=object)
+    nb = max(len(g[3]) for g in groups)
+    order = np.empty((len(groups), nb), dtype=object)
+    tpos = np.zeros((len(groups), nb), np.int64)
+    for k, (name, main, x, Pm, rest) in enumerate(groups):
+        head, tail = tuple(p + 1 for p in Pm), tuple(p + 1 for p in rest)
+        for i, s in enumerate(Pm):
+            order[k, i] = (f"{main} through {head}; {x} "
+                           f"({'J1' if name == 'a' else 'J2'}) carries position {s + 1} to "
+                           f"{tail}")
+            tpos[k, i] = s + 1
+    cols["family"] = [family] * n
+    cols["order"] = order[gi, si].tolist()
+    cols["arrangement"] = g_name[gi].tolist()
+    cols["mechanism"] = cols["arrangement"]
+    cols["main_link"] = g_main[gi].tolist()
+    cols["main_positions"] = g_pm[gi].tolist()
+    cols["transition"] = g_tr[gi].tolist()
+    cols["transition_position"] = tpos[gi, si]
+    # joint geometry and values of the regular rows
+    U = np.full((3, n, 3), np.nan)
+    P = np.full((3, n, 3), np.nan)
+    vals = np.full((n, N, 3, 2), np.nan)
+    reason = reason.copy()
+    for name in sorted({g[0] for g in groups}):
+        rows = np.flatnonzero(row_ok & (g_name[gi] == name))
+        if len(rows):
+            _regular(name, family, N, groups, entries, trs, rows, rs, row_tr, U, P, vals)
+    good = row_ok.copy()
+    if row_ok.any():
+        r = np.flatnonzero(row_ok)
+        P[:, r] = _canonical_points(U[:, r], P[:, r])
+        sg = np.stack([_flip_signs(U[k, r]) for k in range(3)])       # (3, m)
+        U[:, r] *= sg[..., None]
+        vals[r] *= sg.T[:, None, :, None]
+        lines_ok = (np.isfinite(U[:, r]).all((0, 2)) & np.isfinite(P[:, r]).all((0, 2))
+                    & (np.abs(P[:, r]).max((0, 2)) < 1e8 * reach))
+        fine = lines_ok & np.isfinite(vals[r]).all((1, 2, 3))
+        reason[r[~fine]] = "degenerate: an axis at infinity or undefined joint values"
+        good[r[~fine]] = False
+    for k, t in enumerate(family):
+        cols[f"j{k + 1}_type"] = [t] * n
+        for c, j in zip(("ux", "uy", "uz"), range(3)):
+            cols[f"j{k + 1}_{c}"] = U[k, :, j]
+        for c, j in zip("xyz", range(3)):
+            cols[f"j{k + 1}_{c}"] = P[k, :, j]
+        cols[f"j{k + 1}_pitch"] = np.full(n, float(pitches[k]))
+    # free parameters (per main-link entry, and the transition angle)
+    pcols, pkeys = {}, []
+    for e, (_, params, _) in enumerate(entries):
+        keys = []
+        for pname, v in params.items():
+            v = np.asarray(v, float)
+            for c, x in (zip((f"{pname}_{c}" for c in "xyz"), v) if v.ndim else
+                         [(pname, v)]):
+                pcols.setdefault(c, np.full(len(entries), np.nan))[e] = float(x)
+                keys.append(c)
+        pkeys.append(keys)
+    for c, v in pcols.items():
+        cols[c] = v[ei]
+    if (ai >= 0).any():
+        cols["transition_angle"] = np.where(ai >= 0, np.asarray(angle_grid_, float)[ai], np.nan)
+    q = vals[:, :, :, 0].copy()
+    for k in range(3):
+        if family[k] == "P":
+            q[:, :, k] = vals[:, :, k, 1]
+    for c, x in zip(_value_columns(N), np.stack([q, vals[:, :, :, 1]], -1).reshape(n, -1).T):
+        cols[c] = x
+    residual = np.full(n, np.nan)
+    if verify and good.any():
+        r = np.flatnonzero(good)
+        chains = [(family, [Line._exact(U[k, i], P[k, i]) for k in range(3)], pitches, vals[i])
+                  for i in r]
+        residual[r] = verify_dyads(chains, T, reach)
+    cols["residual"] = residual
+    cols["reason"] = reason.tolist()
+    cols["variant"] = np.arange(1, n + 1)
+    return pd.DataFrame({c: cols[c] for c in _column_names(N, pkeys, ei, ai, row_ok)})
 
 
-def _variant(base, name, lk, tr, family, pitches, xp, params, Pm, si, rest, N, reach):
-    vals = np.zeros((N, 3, 2))
-    fv = np.stack([lk.fixed_angles, lk.fixed_slides], 1)
-    mv = np.stack([lk.moving_angles, lk.moving_slides], 1)
-    X = 0 if name == "a" else 1
-    F = 1 if name == "a" else 0
-    for i, p in enumerate(Pm):
-        vals[p, F], vals[p, 2] = fv[i], mv[i]
-    for j, l in enumerate(rest):
-        vals[l, X] = tr.psi[j]
-        vals[l, F] = fv[si]
-        vals[l, 2] = mv[si] + tr.delta[j]
+def _column_names(N, pkeys, ei, ai, row_ok) -> list:
+    """The table's columns: :data:`synthesis.dyads.DYAD_COLUMNS` first, then the others in
+    the order of a table built row by row (each row's keys: base, joints, its parameters
+    (``pkeys`` of its main-link entry ``ei``, the transition angle where ``ai`` ≥ 0), the
+    joint values of a regular row, residual, reason, variant)."""
+    from .dyads import DYAD_COLUMNS
+    base = ["family", "order", "arrangement", "mechanism", "main_link", "main_positions",
+            "transition", "transition_position"] + [
+        f"j{k}_{c}" for k in (1, 2, 3) for c in ("type", "ux", "uy", "uz", "x", "y", "z", "pitch")]
+    names = {}                                          # insertion-ordered set
+    _, firsts = np.unique(np.stack([ei, ai >= 0, row_ok], 1), axis=0, return_index=True)
+    for i in np.sort(firsts):                           # the first row of each kind of keys
+        for c in base + list(pkeys[ei[i]]) + (["transition_angle"] if ai[i] >= 0 else []) + (
+                list(_value_columns(N)) if row_ok[i] else []) + ["residual", "reason",
+                                                                 "variant"]:
+            names.setdefault(c)
+    first = [c for c in DYAD_COLUMNS if c in names]
+    return first + [c for c in names if c not in first]
+
+
+def _regular(name, family, N, groups, entries, trs, rows, rs, row_tr, U, P, vals):
+    """Fill the axes ``U, P (3, n, 3)`` and joint values ``vals (n, N, 3, 2)`` of the
+    regular ``rows`` of arrangement ``name`` (before canonical points and orientation)."""
+    gi, si, ei = rs[rows, 0], rs[rows, 1], rs[rows, 2]
+    x = groups[gi[0]][2]
+    tr = trs[x]
+    t = row_tr[rows]
+    X, F = (0, 1) if name == "a" else (1, 0)
+    ue, inv = np.unique(ei, return_inverse=True)
+    links = [entries[e][0] for e in ue]
+    fd = np.stack([lk.fixed_axis.direction for lk in links])[inv]
+    fp = np.stack([lk.fixed_axis.point for lk in links])[inv]
+    md = np.stack([lk.moving_axis.direction for lk in links])[inv]
+    mp = np.stack([lk.moving_axis.point for lk in links])[inv]
+    fv = np.stack([np.stack([lk.fixed_angles, lk.fixed_slides], 1) for lk in links])[inv]
+    mv = np.stack([np.stack([lk.moving_angles, lk.moving_slides], 1) for lk in links])[inv]
+    pm = _padded([g[3] for g in groups])[gi, :len(groups[gi[0]][3])]      # (m, n_b)
+    rest = _padded([g[4] for g in groups])[gi, :len(groups[gi[0]][4])]    # (m, k)
+    m = np.arange(len(rows))
+    v = np.zeros((len(rows), N, 3, 2))
+    v[m[:, None], pm, F] = fv
+    v[m[:, None], pm, 2] = mv
+    fs, ms = fv[m, si], mv[m, si]                                    # values at s (m, 2)
+    v[m[:, None], rest, X] = tr.psi[t]
+    v[m[:, None], rest, F] = fs[:, None]
+    v[m[:, None], rest, 2] = ms[:, None] + tr.delta[t]
+    vals[rows] = v
+    td, tp = tr.direction[t], tr.point[t]
     if name == "a":
-        lines = [tr.line, lk.fixed_axis, lk.moving_axis]
+        U[0, rows], P[0, rows] = td, tp
+        U[1, rows], P[1, rows] = fd, fp
     else:
-        G = _screw_matrix(lk.fixed_axis.direction, lk.fixed_axis.point, fv[si, 0], fv[si, 1])
-        t1 = _moved(tr.line, np.linalg.inv(G))
-        lines = [lk.fixed_axis, t1, lk.moving_axis]
-    lines = _canonical(lines)
-    for k, ln in enumerate(lines):
-        if _flipped(ln.direction):
-            lines[k] = Line._exact(-ln.direction, ln.point)
-            vals[:, k] *= -1
-    row = dict(base)
-    _geometry(row, family, lines, pitches)
-    _params(row, params)
-    q = vals[:, :, 0].copy()
-    q[:, [k for k in range(3) if family[k] == "P"]] = vals[:, [k for k in range(3)
-                                                                if family[k] == "P"], 1]
-    row.update(zip(_value_columns(N), itertools.chain.from_iterable(
-        zip(q.ravel().tolist(), vals[:, :, 1].ravel().tolist()))))
-    row["residual"] = np.nan
-    row["reason"] = ""
-    if not all(_line_point_guard(ln, reach) for ln in lines) or not np.all(np.isfinite(vals)):
-        row["reason"] = "degenerate: an axis at infinity or undefined joint values"
-        return row, None
-    return row, (family, lines, pitches, vals)
+        # the transition axis at position 1: moved back by J1's screw G at s
+        G = _screw_matrix(fd, fp, fs[:, 0], fs[:, 1])
+        R, c = G[:, :3, :3], G[:, :3, 3]
+        U[0, rows], P[0, rows] = fd, fp
+        U[1, rows] = np.einsum("nji,nj->ni", R, td)
+        P[1, rows] = np.einsum("nji,nj->ni", R, tp - c)
+    U[2, rows], P[2, rows] = md, mp
 
 
 @functools.lru_cache(maxsize=None)
@@ -477,41 +654,3 @@ def _value_columns(N):
     """``q{k}_pos{p}, d{k}_pos{p}`` for p = 1…N, k = 1, 2, 3 (the order of the rows' keys)."""
     return tuple(c for p in range(1, N + 1) for k in (1, 2, 3)
                  for c in (f"q{k}_pos{p}", f"d{k}_pos{p}"))
-
-
-def _geometry(row, family, lines, pitches):
-    for k, t in enumerate(family, start=1):
-        row[f"j{k}_type"] = t
-        if lines is None:
-            for c in ("ux", "uy", "uz", "x", "y", "z"):
-                row[f"j{k}_{c}"] = np.nan
-        else:
-            ln = lines[k - 1]
-            row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"] = ln.direction.tolist()
-            row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"] = ln.point.tolist()
-        row[f"j{k}_pitch"] = pitches[k - 1]
-
-
-def _params(row, params):
-    for name, v in params.items():
-        v = np.asarray(v, float)
-        if v.ndim:
-            for c, x in zip("xyz", v):
-                row[f"{name}_{c}"] = float(x)
-        else:
-            row[name] = float(v)
-
-
-def _failed(base, family, pitches, params, reason):
-    row = dict(base)
-    _geometry(row, family, None, pitches)
-    _params(row, params)
-    row["residual"] = np.nan
-    row["reason"] = reason
-    return row
-
-
-def _order_columns(df):
-    from .dyads import DYAD_COLUMNS
-    first = [c for c in DYAD_COLUMNS if c in df.columns]
-    return df[first + [c for c in df.columns if c not in first]]

@@ -54,33 +54,53 @@ def dq_inv(a):
 
 
 def quat_from_rotation(R) -> np.ndarray:
-    """Unit quaternion (w, x, y, z) of a rotation matrix (Shepperd's method: the largest of
-    the four squared components is taken first, so it is accurate at every angle)."""
+    """Unit quaternions (w, x, y, z) of rotation matrices (Shepperd's method: the largest of
+    the four squared components is taken first, so it is accurate at every angle).
+
+    Parameters
+    ----------
+    R : array_like, shape (..., 3, 3)
+        Rotation matrices.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 4)
+        The quaternions, scalar part w ≥ 0.
+    """
     R = np.asarray(R, float)
-    tr = R[0, 0] + R[1, 1] + R[2, 2]
-    k = int(np.argmax([tr, R[0, 0], R[1, 1], R[2, 2]]))
-    if k == 0:
-        w = 0.5 * np.sqrt(1 + tr)
-        q = [w, (R[2, 1] - R[1, 2]) / (4 * w), (R[0, 2] - R[2, 0]) / (4 * w),
-             (R[1, 0] - R[0, 1]) / (4 * w)]
-    else:
-        i = k - 1
-        j, l = (i + 1) % 3, (i + 2) % 3
-        v = 0.5 * np.sqrt(1 + R[i, i] - R[j, j] - R[l, l])
-        q = [0.0] * 4
-        q[0] = (R[l, j] - R[j, l]) / (4 * v)
-        q[1 + i] = v
-        q[1 + j] = (R[j, i] + R[i, j]) / (4 * v)
-        q[1 + l] = (R[l, i] + R[i, l]) / (4 * v)
-    q = np.array(q)
-    return q if q[0] >= 0 else -q
+    r00, r01, r02 = R[..., 0, 0], R[..., 0, 1], R[..., 0, 2]
+    r10, r11, r12 = R[..., 1, 0], R[..., 1, 1], R[..., 1, 2]
+    r20, r21, r22 = R[..., 2, 0], R[..., 2, 1], R[..., 2, 2]
+    tr = r00 + r11 + r22
+    shape = tr.shape
+    k = np.argmax(np.stack([tr, r00, r11, r22], -1), -1).reshape(-1)
+    # Shepperd's symmetric matrix: the quaternion is row k / (4 v), its k-th entry
+    # v = ½ √K_kk, for the largest diagonal entry k
+    K = np.empty((4, 4) + shape)
+    K[0, 0], K[1, 1] = 1 + tr, 1 + r00 - r11 - r22
+    K[2, 2], K[3, 3] = 1 + r11 - r22 - r00, 1 + r22 - r00 - r11
+    K[0, 1] = K[1, 0] = r21 - r12
+    K[0, 2] = K[2, 0] = r02 - r20
+    K[0, 3] = K[3, 0] = r10 - r01
+    K[1, 2] = K[2, 1] = r10 + r01
+    K[1, 3] = K[3, 1] = r20 + r02
+    K[2, 3] = K[3, 2] = r21 + r12
+    i = np.arange(len(k))
+    row = K.reshape(4, 4, -1)[k, :, i]                                    # (n, 4)
+    v = 0.5 * np.sqrt(row[i, k])
+    q = row / (4 * v[:, None])
+    q[i, k] = v
+    q = q.reshape(shape + (4,))
+    return np.where(q[..., :1] >= 0, q, -q)
 
 
 def dq_from_matrix(T):
+    """Unit dual quaternions ``(..., 8)`` of rigid transforms ``T (..., 4, 4)``."""
     T = np.asarray(T, float)
-    r = quat_from_rotation(T[:3, :3])
-    d = 0.5 * qmul(np.r_[0.0, T[:3, 3]], r)
-    return np.concatenate([r, d])
+    r = quat_from_rotation(T[..., :3, :3])
+    t = T[..., :3, 3]
+    d = 0.5 * qmul(np.concatenate([np.zeros(t.shape[:-1] + (1,)), t], -1), r)
+    return np.concatenate([r, d], -1)
 
 
 def dq_to_matrix(s):

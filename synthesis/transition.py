@@ -25,6 +25,11 @@ small closed form:
   sign), which fixes Δ_l, Δ_m; the axis moments are then affine in σ_l, σ_m and equal for
   one (σ_l, σ_m), by a 3x2 linear least-squares solve that must be consistent.
 
+Batches.  :func:`transition_joints` solves n problems of one kind at once (the family
+enumerations collect every variant's problem first); :func:`transition_joint` is its
+one-problem form.  The R transitions run in a compiled kernel, one problem after another
+(:mod:`synthesis.transition_kernels`), the C transitions as numpy arrays over the problems.
+
 Sphere-ended transitions (R or P carrying a sphere centre) are point problems: see
 :func:`synthesis.dyads.circle_axis` and the PRS construction.
 """
@@ -38,7 +43,8 @@ from .dualquat import dq_from_matrix, dq_mul, qmul
 from .errors import SynthesisError
 from .screw import Line
 
-__all__ = ["Transition", "transition_joint", "TRANSITION_POSITIONS"]
+__all__ = ["Transition", "Transitions", "transition_joint", "transition_joints",
+           "TRANSITION_POSITIONS"]
 
 #: (transition joint, J3) → remaining positions it carries (the counting of the module notes)
 TRANSITION_POSITIONS = {("R", "R"): 1, ("R", "H"): 1, ("R", "P"): 1, ("R", "C"): 1,
@@ -57,104 +63,181 @@ class Transition:
     delta: np.ndarray
 
 
-def _screw_dq(u, m, angle, slide):
-    """Dual quaternion (8,) of the screw about the line with Plücker coordinates (u, m = p × u)."""
-    c, s = np.cos(angle / 2), np.sin(angle / 2)
-    h = 0.5 * slide
-    return np.array([c, s * u[0], s * u[1], s * u[2], -h * s, h * c * u[0] + s * m[0],
-                     h * c * u[1] + s * m[1], h * c * u[2] + s * m[2]])
+@dataclass
+class Transitions:
+    """The transition joints of n problems (:func:`transition_joints`), m joints in all.
+
+    Attributes
+    ----------
+    owner : numpy.ndarray of int, shape (m,)
+        The problem each joint solves (ascending; a problem's joints in the order of
+        :func:`transition_joint`).
+    direction, point : numpy.ndarray, shape (m, 3)
+        Each joint's axis: unit direction and the foot of the perpendicular from the origin
+        (length), in the ground at the configuration of the transition position.
+    psi, delta : numpy.ndarray, shape (m, k, 2)
+        The joint's values and J3's increments at the k remaining positions (angle rad,
+        slide length).
+    error : numpy.ndarray of object, shape (n,)
+        ``""``, or why problem i has no joint (a degenerate configuration; none of its
+        joints is then listed).  A problem without error may still have no joint (an H
+        carried without a real root).
+    """
+
+    owner: np.ndarray
+    direction: np.ndarray
+    point: np.ndarray
+    psi: np.ndarray
+    delta: np.ndarray
+    error: np.ndarray
+
+
+def _dot(a, b):
+    """Dot products over the last axis (broadcast)."""
+    return np.einsum("...i,...i->...", a, b)
 
 
 def _cross(a, b):
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+    """Cross products of 3-vectors ``(..., 3)`` (broadcast)."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[..., 0] = a1 * b2 - a2 * b1
+    out[..., 1] = a2 * b0 - a0 * b2
+    out[..., 2] = a0 * b1 - a1 * b0
+    return out
+
+
+def _screw_dq(u, m, angle, slide):
+    """Dual quaternions ``(..., 8)`` of the screws about the lines with Plücker coordinates
+    ``(u, m = p × u) (..., 3)`` by ``angle`` (rad) and ``slide`` (length), broadcast."""
+    angle, slide = np.asarray(angle, float), np.asarray(slide, float)
+    c, s = np.cos(angle / 2)[..., None], np.sin(angle / 2)[..., None]
+    h = 0.5 * slide[..., None]
+    out = np.empty(np.broadcast_shapes(angle.shape, slide.shape, u.shape[:-1]) + (8,))
+    out[..., :1] = c
+    out[..., 1:4] = s * u
+    out[..., 4:5] = -h * s
+    out[..., 5:] = h * c * u + s * m
+    return out
 
 
 def _screw_matrix(u, p, angle, slide):
-    """4x4 screw: rotation ``angle`` about the line (u, p), then ``slide`` along u."""
-    c, s = np.cos(angle), np.sin(angle)
-    K = np.array([[0.0, -u[2], u[1]], [u[2], 0.0, -u[0]], [-u[1], u[0], 0.0]])
+    """4x4 screws ``(..., 4, 4)``: rotation ``angle`` (rad) about the lines (u, p)
+    ``(..., 3)``, then ``slide`` (length) along u (broadcast)."""
+    angle, slide = np.asarray(angle, float), np.asarray(slide, float)
+    c, s = np.cos(angle)[..., None, None], np.sin(angle)[..., None, None]
+    K = np.zeros(u.shape[:-1] + (3, 3))
+    K[..., 0, 1], K[..., 0, 2] = -u[..., 2], u[..., 1]
+    K[..., 1, 0], K[..., 1, 2] = u[..., 2], -u[..., 0]
+    K[..., 2, 0], K[..., 2, 1] = -u[..., 1], u[..., 0]
     R = np.eye(3) + s * K + (1 - c) * (K @ K)
-    T = np.eye(4)
-    T[:3, :3] = R
-    T[:3, 3] = p - R @ p + slide * u
+    T = np.zeros(R.shape[:-2] + (4, 4))
+    T[..., :3, :3] = R
+    T[..., :3, 3] = p - (R @ p[..., None])[..., 0] + slide[..., None] * u
+    T[..., 3, 3] = 1.0
     return T
 
 
 def _screw_of(E):
-    """Axis u (unit), point (foot from the origin), angle in [0, π] and slide of a rigid
-    motion that turns (angle > 0)."""
+    """Axes u (unit), points (foot from the origin), angles in [0, π] and slides of rigid
+    motions ``E (n, 4, 4)`` that turn (angle > 0; where one does not, angle 0, u and the
+    point NaN)."""
     from .dualquat import quat_from_rotation
-    q = quat_from_rotation(E[:3, :3])
-    sh = np.linalg.norm(q[1:])
-    ang = 2 * np.arctan2(sh, q[0])
-    if sh == 0:
-        return np.array([0.0, 0.0, 1.0]), np.zeros(3), 0.0, float(np.linalg.norm(E[:3, 3]))
-    u = q[1:] / sh
-    t = E[:3, 3]
-    slide = float(t @ u)
-    tp = t - slide * u
-    p = 0.5 * (tp + _cross(u, tp) / np.tan(ang / 2))
-    return u, p - (p @ u) * u, float(ang), slide
+    q = quat_from_rotation(E[..., :3, :3])
+    sh = np.sqrt(_dot(q[..., 1:], q[..., 1:]))
+    ang = 2 * np.arctan2(sh, q[..., 0])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = q[..., 1:] / sh[..., None]
+        t = E[..., :3, 3]
+        slide = _dot(t, u)
+        tp = t - slide[..., None] * u
+        p = 0.5 * (tp + _cross(u, tp) / np.tan(ang / 2)[..., None])
+        p = p - _dot(p, u)[..., None] * u
+    return u, p, ang, slide
 
 
-def _zero_slide_coeffs(D, u, m):
-    """α, β, γ, δ of f(Δ, σ) = scalar dual part of q_D q_Y(−Δ, −σ) (see module notes)."""
-    qD = dq_from_matrix(D)
-    # the dual scalar part of a product is the linear functional w · (the second factor):
-    # a₀b₄ − a⃗·b⃗_d + a₄b₀ − a⃗_d·b⃗, so f is four dot products (no dual-quaternion products)
-    w = np.concatenate([qD[4:5], -qD[5:8], qD[0:1], -qD[1:4]])
+def transition_joints(kind: str, y_kind: str, direction, point, y_pitch, D, length: float,
+                      *, angle=None) -> Transitions:
+    """All transition joints of kind ``kind`` carrying J3 for n problems at once (see the
+    module notes and :func:`transition_joint`, the one-problem form).
 
-    def f(ang, sl):
-        return float(w @ _screw_dq(u, m, -ang, -sl))
-    a, b = f(0.0, 0.0), f(np.pi, 0.0)
-    return a, b, f(0.0, 1.0) - a, f(np.pi, 1.0) - b
+    Parameters
+    ----------
+    kind : str
+        The transition joint: ``"R"`` (one remaining position) or ``"C"`` (two, J3 = C).
+    y_kind : str
+        J3's kind: R, H, P or C.
+    direction, point : array_like, shape (n, 3)
+        J3's axes at the transition positions: unit directions (for P: the slide
+        directions) and points on them (length).
+    y_pitch : float or array_like, shape (n,)
+        J3's pitch (length/rad) when ``y_kind`` is H.
+    D : array_like, shape (n, k, 4, 4)
+        ``T_l T_s⁻¹`` for the k remaining positions l of each problem.
+    length : float
+        The task's reach (round-off thresholds).
+    angle : array_like, shape (n,), optional
+        J3's rotation Δ (rad) for an R transition carrying a C joint (the free
+        parameter); required then.
 
+    Returns
+    -------
+    Transitions
+        The joints of every problem, and per problem the reason (an empty string when
+        none) it has no joint.
 
-def _as_rotation(E, length, what):
-    """Axis line and angle of a rigid motion that must be a pure rotation."""
-    u, p, ang, slide = _screw_of(E)
-    if abs(ang) < 1e-9:
-        raise SynthesisError(f"{what}: the transition joint would not turn (the remaining "
-                             "position is reached by J3 alone): degenerate")
-    if abs(slide) > 1e-8 * length:
-        raise SynthesisError(f"{what}: no pure rotation (slide {slide:.2e} left): degenerate")
-    return Line._exact(u, p), ang
-
-
-def _h_roots(a, b, g, d, p, n: int = 2048):
-    """Roots Δ ∈ (−π, π] of α cos Δ/2 + β sin Δ/2 + pΔ(γ cos Δ/2 + δ sin Δ/2)."""
-    def f(x):
-        c, s = np.cos(x / 2), np.sin(x / 2)
-        return a * c + b * s + p * x * (g * c + d * s)
-
-    def df(x):
-        c, s = np.cos(x / 2), np.sin(x / 2)
-        return 0.5 * (-a * s + b * c) + p * (g * c + d * s) + 0.5 * p * x * (-g * s + d * c)
-    x = np.linspace(-np.pi, np.pi, n + 1)
-    v = f(x)
-    idx = np.flatnonzero(np.sign(v[:-1]) * np.sign(v[1:]) <= 0)
-    lo, hi = x[idx], x[idx + 1]
-    r = 0.5 * (lo + hi)
-    for _ in range(60):                            # safeguarded Newton, vectorised
-        fr = f(r)
-        step = fr / np.where(df(r) == 0, 1e-300, df(r))
-        rn = r - step
-        bad = (rn < lo) | (rn > hi) | ~np.isfinite(rn)
-        flo = f(lo)
-        left = np.sign(fr) == np.sign(flo)
-        lo, hi = np.where(left, r, lo), np.where(left, hi, r)
-        r = np.where(bad, 0.5 * (lo + hi), rn)
-        if np.all(np.abs(step) < 1e-15):
-            break
-    r = np.unique(np.round(r, 12))
-    return r[(r > -np.pi) | np.isclose(r, np.pi)]
+    Raises
+    ------
+    SynthesisError
+        Naming the argument: an unimplemented pair of kinds, or arrays of the wrong shape.
+    """
+    key = (kind, y_kind)
+    if key not in TRANSITION_POSITIONS:
+        raise SynthesisError(f"transition: a {kind} joint carrying a {y_kind} joint is not "
+                             "implemented")
+    k = TRANSITION_POSITIONS[key]
+    D = np.asarray(D, float)
+    if D.ndim != 4 or D.shape[2:] != (4, 4):
+        raise SynthesisError(f"D: expected an (n, k, 4, 4) array of displacements, got shape "
+                             f"{D.shape}")
+    n = len(D)
+    if D.shape[1] != k:
+        raise SynthesisError(f"transition: {kind} carrying {y_kind} takes {k} remaining "
+                             f"positions, got {D.shape[1]}")
+    u, p = np.asarray(direction, float), np.asarray(point, float)
+    if u.shape != (n, 3) or p.shape != (n, 3):
+        raise SynthesisError(f"direction, point: expected ({n}, 3) arrays (one J3 axis per "
+                             f"problem of D), got shapes {u.shape}, {p.shape}")
+    pitch = np.asarray(y_pitch, float)
+    if pitch.shape not in ((), (n,)):
+        raise SynthesisError(f"y_pitch: expected a number or ({n},) numbers, got shape "
+                             f"{pitch.shape}")
+    pitch = np.broadcast_to(pitch, (n,))
+    if key == ("R", "C"):
+        if angle is None:
+            raise SynthesisError("angle: required for an R transition carrying a C joint "
+                                 "(J3's rotation, rad)")
+        angle = np.asarray(angle, float)
+        if angle.shape not in ((), (n,)):
+            raise SynthesisError(f"angle: expected a number or ({n},) angles (rad), got shape "
+                                 f"{angle.shape}")
+        angle = np.broadcast_to(angle, (n,))
+    if n == 0:
+        e = np.zeros((0, 3))
+        return Transitions(np.zeros(0, np.int64), e, e, np.zeros((0, k, 2)), np.zeros((0, k, 2)),
+                           np.zeros(0, dtype=object))
+    m = _cross(p, u)
+    if kind == "R":
+        return _revolute(y_kind, u, m, p, pitch, D[:, 0], length, angle)
+    return _cylindric(u, m, p, D, length)
 
 
 def transition_joint(kind: str, y_kind: str, y_line: Line, y_pitch: float, D, length: float,
                      *, angle: float | None = None) -> list[Transition]:
     """All transition joints of kind ``kind`` carrying J3 (``y_kind`` on ``y_line`` at the
-    transition position) through the relative displacements ``D``.
+    transition position) through the relative displacements ``D`` (one problem of
+    :func:`transition_joints`).
 
     Parameters
     ----------
@@ -182,91 +265,113 @@ def transition_joint(kind: str, y_kind: str, y_line: Line, y_pitch: float, D, le
     SynthesisError
         A degenerate configuration (the reason names it).
     """
-    D = np.asarray(D, float).reshape(-1, 4, 4)
-    key = (kind, y_kind)
-    if key not in TRANSITION_POSITIONS:
-        raise SynthesisError(f"transition: a {kind} joint carrying a {y_kind} joint is not "
-                             "implemented")
-    if len(D) != TRANSITION_POSITIONS[key]:
-        raise SynthesisError(f"transition: {kind} carrying {y_kind} takes "
-                             f"{TRANSITION_POSITIONS[key]} remaining positions, got {len(D)}")
-    u, m = y_line.direction, _cross(y_line.point, y_line.direction)
-    if kind == "R":
-        return _revolute(y_kind, u, m, y_line.point, y_pitch, D[0], length, angle)
-    return _cylindric(u, m, y_line.point, D, length)
+    D = np.asarray(D, float).reshape(1, -1, 4, 4)
+    tr = transition_joints(kind, y_kind, y_line.direction[None], y_line.point[None], y_pitch,
+                           D, length, angle=None if angle is None else [angle])
+    if tr.error[0]:
+        raise SynthesisError(tr.error[0])
+    return [Transition(Line._exact(tr.direction[i], tr.point[i]), tr.psi[i], tr.delta[i])
+            for i in range(len(tr.owner))]
+
+
+#: the H roots' bracketing grid on [−π, π] (2048 intervals)
+_H_GRID = np.linspace(-np.pi, np.pi, 2049)
+
+_MESSAGES = {
+    1: "transition: every rotation of J3 leaves a pure rotation (the remaining position is on "
+       "J3's own motion): degenerate",
+    2: "transition: J3's slide does not change the transition's slide (slide direction ⊥ the "
+       "rotation axis): degenerate",
+    3: "transition_angle {:.6g}: J3's slide cannot cancel the transition's slide at this "
+       "angle: degenerate",
+    4: "transition: the transition joint would not turn (the remaining position is reached by "
+       "J3 alone): degenerate",
+    5: "transition: no pure rotation (slide {:.2e} left): degenerate"}
 
 
 def _revolute(y_kind, u, m, p, pitch, D, length, angle):
-    a, b, g, d = _zero_slide_coeffs(D, u, m)
-    if y_kind == "R":
-        if np.hypot(a, b) < 1e-14 * (1 + length):
-            raise SynthesisError("transition: every rotation of J3 leaves a pure rotation "
-                                 "(the remaining position is on J3's own motion): degenerate")
-        deltas = [(2 * np.arctan2(-a, b), 0.0)]
-    elif y_kind == "P":
-        if abs(g) < 1e-12:
-            raise SynthesisError("transition: J3's slide does not change the transition's "
-                                 "slide (slide direction ⊥ the rotation axis): degenerate")
-        deltas = [(0.0, -a / g)]
-    elif y_kind == "H":
-        deltas = [(x, pitch * x) for x in _h_roots(a, b, g, d, pitch)]
-    else:                                                     # C: Δ is the free parameter
-        c, s = np.cos(angle / 2), np.sin(angle / 2)
-        den = g * c + d * s
-        if abs(den) < 1e-12:
-            raise SynthesisError(f"transition_angle {angle:.6g}: J3's slide cannot cancel the "
-                                 "transition's slide at this angle: degenerate")
-        deltas = [(float(angle), -(a * c + b * s) / den)]
-    out = []
-    for dl, sl in deltas:
-        dl = float(np.arctan2(np.sin(dl), np.cos(dl))) if y_kind in "RC" else float(dl)
-        E = D @ _screw_matrix(u, p, -dl, -sl)
-        line, psi = _as_rotation(E, length, "transition")
-        out.append(Transition(line, np.array([[psi, 0.0]]), np.array([[dl, sl]])))
-    return out
+    """R transitions (one remaining position, ``D (n, 4, 4)``), by the compiled kernel
+    :func:`synthesis.transition_kernels.revolute`."""
+    from .transition_kernels import revolute
+    n = len(D)
+    owner, out, code, value = revolute(
+        "RPHC".index(y_kind), np.ascontiguousarray(u), np.ascontiguousarray(m),
+        np.ascontiguousarray(p), np.ascontiguousarray(pitch, dtype=float),
+        np.ascontiguousarray(D), float(length),
+        np.zeros(n) if angle is None else np.ascontiguousarray(angle, dtype=float), _H_GRID)
+    error = np.full(n, "", dtype=object)
+    for i in np.flatnonzero(code):
+        error[i] = _MESSAGES[code[i]].format(value[i])
+    z = np.zeros(len(owner))
+    return Transitions(owner, out[:, 3:6], out[:, 6:9], np.stack([out[:, 2], z], -1)[:, None],
+                       out[:, None, 0:2], error)
 
 
 def _cylindric(u, m, p, D, length):
-    qs = [dq_from_matrix(Dl) for Dl in D]
-    uq = np.r_[0.0, u]
-    planes = [(q[1:4], qmul(q[:4], -uq)[1:]) for q in qs]          # spans of vec(r_E(Δ))
-    n = [_cross(a, b) for a, b in planes]
-    w = _cross(n[0], n[1])
-    if min(np.linalg.norm(n[0]), np.linalg.norm(n[1])) < 1e-12 or np.linalg.norm(w) < 1e-10:
-        raise SynthesisError("transition: the C axis direction is not determined (the "
-                             "rotations' planes coincide): degenerate")
-    w /= np.linalg.norm(w)
-    cols, rots, dls = [], [], []
-    for (a, b), q, Dl in zip(planes, qs, D):
-        M = np.stack([_cross(a, w), _cross(b, w)], 1)
+    """C transitions carrying a C joint (two remaining positions, ``D (n, 2, 4, 4)``) for
+    J3's Plücker lines ``u, m`` and points ``p (n, 3)``, as arrays over the problems (see
+    the module notes)."""
+    n = len(D)
+    error = np.full(n, "", dtype=object)
+    qs = dq_from_matrix(D)                                                  # (n, 2, 8)
+    uq = np.concatenate([np.zeros((n, 1)), u], -1)[:, None]
+    A0, B0 = qs[..., 1:4], qmul(qs[..., :4], -uq)[..., 1:]                  # spans of vec(r_E(Δ))
+    nrm = _cross(A0, B0)                                                    # (n, 2, 3)
+    w = _cross(nrm[:, 0], nrm[:, 1])
+    nn = np.sqrt(_dot(nrm, nrm))
+    wn = np.sqrt(_dot(w, w))
+    ok = ~((nn.min(1) < 1e-12) | (wn < 1e-10))
+    error[~ok] = ("transition: the C axis direction is not determined (the rotations' planes "
+                  "coincide): degenerate")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = w / wn[:, None]
+        M = np.stack([_cross(A0, w[:, None]), _cross(B0, w[:, None])], -1)  # (n, 2, 3, 2)
+        M = np.where(ok[:, None, None, None], M, np.eye(3, 2))
         _, _, Vt = np.linalg.svd(M)
-        cs = Vt[-1] / np.linalg.norm(Vt[-1])
-        dl = 2 * np.arctan2(cs[1], cs[0])
-        e0 = dq_mul(q, _screw_dq(u, m, -dl, 0.0))
-        e1 = dq_mul(q, _screw_dq(u, m, -dl, -1.0)) - e0
-        sh, ch = e0[1:4] @ w, e0[0]
-        if abs(sh) < 1e-9:
-            raise SynthesisError("transition: the C transition joint would not turn at a "
-                                 "remaining position: degenerate")
+        cs = Vt[..., -1, :] / np.sqrt(_dot(Vt[..., -1, :], Vt[..., -1, :]))[..., None]
+        dl = 2 * np.arctan2(cs[..., 1], cs[..., 0])                         # (n, 2)
+        um, mm = u[:, None], m[:, None]
+        e0 = dq_mul(qs, _screw_dq(um, mm, -dl, 0.0))
+        e1 = dq_mul(qs, _screw_dq(um, mm, -dl, -1.0)) - e0
+        sh, ch = _dot(e0[..., 1:4], w[:, None]), e0[..., 0]
+        turn = ~(np.abs(sh) < 1e-9).any(1)
+        error[ok & ~turn] = ("transition: the C transition joint would not turn at a remaining "
+                             "position: degenerate")
+        ok &= turn
         # moment m(σ) = (v_d − (d/2) ch w)/sh with d = −2 s_d / sh: affine in σ
-        mom = [(e[5:] + e[4] / sh * ch * w) / sh for e in (e0, e1)]
-        cols.append(mom)
-        rots.append((sh, ch))
-        dls.append(dl)
-    A = np.stack([cols[0][1], -cols[1][1]], 1)
-    rhs = cols[1][0] - cols[0][0]
-    sig, *_ = np.linalg.lstsq(A, rhs, rcond=None)
-    if np.linalg.norm(A @ sig - rhs) > 1e-8 * max(1.0, np.linalg.norm(rhs)):
-        raise SynthesisError("transition: no common C axis for the two remaining positions "
-                             f"(moment misfit {np.linalg.norm(A @ sig - rhs):.1e})")
-    mom = cols[0][0] + sig[0] * cols[0][1]
+        mom0 = (e0[..., 5:] + (e0[..., 4] / sh * ch)[..., None] * w[:, None]) / sh[..., None]
+        mom1 = (e1[..., 5:] + (e1[..., 4] / sh * ch)[..., None] * w[:, None]) / sh[..., None]
+        A = np.stack([mom1[:, 0], -mom1[:, 1]], -1)                         # (n, 3, 2)
+        rhs = mom0[:, 1] - mom0[:, 0]
+        A = np.where(ok[:, None, None], A, np.eye(3, 2))
+        rhs = np.where(ok[:, None], rhs, 0.0)
+        sig = _lstsq(A, rhs)
+        res = np.einsum("nij,nj->ni", A, sig) - rhs
+        mis = np.sqrt(_dot(res, res))
+    bad = ok & (mis > 1e-8 * np.maximum(1.0, np.sqrt(_dot(rhs, rhs))))
+    for i in np.flatnonzero(bad):
+        error[i] = ("transition: no common C axis for the two remaining positions "
+                    f"(moment misfit {mis[i]:.1e})")
+    ok &= ~bad
+    own = np.flatnonzero(ok)
+    w, sig, dl = w[own], sig[own], dl[own]
+    mom = mom0[own, 0] + sig[:, :1] * mom1[own, 0]
     pt = _cross(w, mom)
-    line = Line._exact(w, pt - (pt @ w) * w)
-    psi, delta = [], []
-    for (sh, ch), dl, sl, Dl in zip(rots, dls, sig, D):
-        E = Dl @ _screw_matrix(u, p, -dl, -sl)
-        ax, _, ang, slide = _screw_of(E)
-        sgn = 1.0 if ax @ w > 0 else -1.0
-        psi.append((sgn * ang, sgn * slide))
-        delta.append((float(np.arctan2(np.sin(dl), np.cos(dl))), float(sl)))
-    return [Transition(line, np.array(psi), np.array(delta))]
+    pt = pt - _dot(pt, w)[:, None] * w
+    E = D[own] @ _screw_matrix(u[own][:, None], p[own][:, None], -dl, -sig)
+    ax, _, ang, slide = _screw_of(E)
+    sgn = np.where(_dot(ax, w[:, None]) > 0, 1.0, -1.0)
+    psi = np.stack([sgn * ang, sgn * slide], -1)
+    delta = np.stack([np.arctan2(np.sin(dl), np.cos(dl)), sig], -1)
+    return Transitions(own, w, pt, psi, delta, error)
+
+
+def _lstsq(A, b):
+    """Least-squares solutions ``(n, 2)`` of ``A (n, 3, 2) x = b (n, 3)`` as
+    :func:`numpy.linalg.lstsq` with ``rcond=None`` (by the SVD, singular values below
+    ``3 eps`` times the largest cut)."""
+    U, s, Vt = np.linalg.svd(A, full_matrices=False)
+    cut = s > np.finfo(float).eps * 3 * s[:, :1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        c = np.where(cut, np.einsum("nij,ni->nj", U, b) / s, 0.0)
+    return np.einsum("nji,nj->ni", Vt, c)

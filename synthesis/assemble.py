@@ -375,7 +375,8 @@ def assemble_table(table: pd.DataFrame, screws, *, links: int = 2, drive: str | 
         "+"), ``mobility``, ``order_defect``, ``branch_defect``, ``dead_point``,
         ``defects`` (any of the three), ``transmission``, ``pose_error`` (largest over
         the positions; inf where not reached), ``reason`` (why it could not be assembled:
-        mobility not 1, no drivable joint), ``rank`` (1 best; NaN where not assembled).
+        mobility not 1, or ``drive`` not a drivable joint), ``rank`` (1 best; NaN where not
+        assembled).
     """
     from .validate import integer
     links = integer(links, "links", low=2)

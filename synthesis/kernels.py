@@ -176,12 +176,15 @@ def _off_range(A, b, out, Q):
 
 
 @_kernel
-def _workspace():
-    """Scratch arrays of the residuals, allocated once per search (an allocation costs
-    more than a residual): vectors V (16, 3), 3x3 matrices Ms (3, 3, 3), the equations A
-    (9, 5) and rhs (9,), normal equations M (4, 4), b, x (4,), Gram–Schmidt Q (5, 9)."""
-    return (np.zeros((16, 3)), np.zeros((3, 3, 3)), np.zeros((9, 5)), np.zeros(9),
-            np.zeros((4, 4)), np.zeros(4), np.zeros(4), np.zeros((5, 9)))
+def _scratch():
+    """Scratch arrays of the residuals, allocated once per search (an allocation, or a
+    tuple of arrays passed down, costs more than a residual; so they are passed one by
+    one): vectors V (16, 3), 3x3 matrices Ms (3, 3, 3), the HH equations A6 (6, 4), rhs6
+    (6,) and their normal equations M (4, 4), b, x (4,); the HS equations A9 (9, 5), rhs9
+    (9,) and Gram–Schmidt Q (5, 9)."""
+    return (np.zeros((16, 3)), np.zeros((3, 3, 3)), np.zeros((6, 4)), np.zeros(6),
+            np.zeros((4, 4)), np.zeros(4), np.zeros(4), np.zeros((9, 5)), np.zeros(9),
+            np.zeros((5, 9)))
 
 
 # ------------------------------------------------------------------ HH, RH, HR links
@@ -241,62 +244,70 @@ def _hh_equations(g, R, t, pn, A, rhs, w, th, ph, V, Ms):
 
 
 @_kernel
-def _hh_misfit(g, R, t, pn, f, ws):
-    """The six equations' least-squares misfit vector f (6,) for direction g, the points
-    solved by normal equations (as ``helical._lstsq`` did); returns the validity of g."""
-    V, Ms, A9, rhs9, M, b, x = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[6]
-    A, rhs = A9[:6, :4], rhs9[:6]
-    w, th, ph = V[10], V[11], V[12]
-    wn, sgw = _hh_equations(g, R, t, pn, A, rhs, w, th, ph, V, Ms)
+def _hh_normal(g, R, t, pn, V, Ms, A, rhs, M, b):
+    """The six equations for direction g (A (6, 4), rhs (6,)) and their normal equations
+    M = AᵀA + 1e-14 I (4, 4), b = Aᵀ rhs (4,) (scratch as :func:`_scratch`); returns the
+    validity of g."""
+    wn, sgw = _hh_equations(g, R, t, pn, A, rhs, V[10], V[11], V[12], V, Ms)
     for i in range(4):
-        for j in range(4):
+        for j in range(i + 1):
             s = 0.0
             for r in range(6):
                 s += A[r, i] * A[r, j]
             M[i, j] = s
+            M[j, i] = s
         M[i, i] += 1e-14
         s = 0.0
         for r in range(6):
             s += A[r, i] * rhs[r]
         b[i] = s
+    return wn > 1e-9 and sgw > 1e-9
+
+
+@_kernel
+def _hh_misfit(g, R, t, pn, f, V, Ms, A, rhs, M, b, x):
+    """The six equations' least-squares misfit vector f (6,) for direction g, the points
+    solved by normal equations; returns the validity of g."""
+    ok = _hh_normal(g, R, t, pn, V, Ms, A, rhs, M, b)
     _spd_solve(M, b, x)
     for i in range(4):
         if not math.isfinite(x[i]):
             x[i] = 0.0
     for r in range(6):
         f[r] = A[r, 0] * x[0] + A[r, 1] * x[1] + A[r, 2] * x[2] + A[r, 3] * x[3] - rhs[r]
-    return wn > 1e-9 and sgw > 1e-9
+    return ok
 
 
 @_kernel
 def hh_grid(G, R, t, pn):
-    """Misfit |f| (n,) of the helical link's equations for the fixed-axis directions
-    G (n, 3) (R, t, pn as :func:`_hh_equations`); inf where the direction pair is not
-    valid."""
+    """Misfit (n,) of the helical link's equations for the fixed-axis directions G (n, 3)
+    (R, t, pn as :func:`_hh_equations`), from the normal equations (:func:`_misfit`);
+    inf where the direction pair is not valid."""
     n = G.shape[0]
     out = np.empty(n)
-    f = np.empty(6)
-    ws = _workspace()
+    V, Ms, A, rhs, M, b, _, _, _, _ = _scratch()
     for k in range(n):
-        ok = _hh_misfit(G[k], R, t, pn, f, ws)
-        s = 0.0
-        for r in range(6):
-            s += f[r] * f[r]
-        out[k] = math.sqrt(s) if ok else np.inf
+        if _hh_normal(G[k], R, t, pn, V, Ms, A, rhs, M, b):
+            rr = 0.0
+            for r in range(6):
+                rr += rhs[r] * rhs[r]
+            out[k] = _misfit(M, b, rr)
+        else:
+            out[k] = np.inf
     return out
 
 
 @_kernel
-def _hh_residual(z, base, R, t, pn, f, ws):
+def _hh_residual(z, base, R, t, pn, f, V, Ms, A, rhs, M, b, x):
     """Residual f (6,) at tangent coordinates z (2,) about base = (g0, e1, e2) (3, 3):
     the direction g = normalise(g0 + z₁ e1 + z₂ e2)."""
-    g = ws[0][13]
+    g = V[13]
     for i in range(3):
         g[i] = base[0, i] + z[0] * base[1, i] + z[1] * base[2, i]
     n = math.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
     for i in range(3):
         g[i] /= n
-    _hh_misfit(g, R, t, pn, f, ws)
+    _hh_misfit(g, R, t, pn, f, V, Ms, A, rhs, M, b, x)
 
 
 # ------------------------------------------------------------------ HS links
@@ -329,10 +340,10 @@ def hs_system(g, th, R, t, p):
 
 
 @_kernel
-def _hs_residual(z, a, b, R, t, p, f, ws):
+def _hs_residual(z, a, b, R, t, p, f, V, Ms, A, rhs, Q):
     """The nine HS equations' residual f (9,) off the range of their matrix at
-    z = (β, θ₂, θ₃, θ₄), the axis direction g = cos β a + sin β b; R (3, 3, 3), t (3, 3)."""
-    V, Ms, A, rhs, Q = ws[0], ws[1], ws[2], ws[3], ws[7]
+    z = (β, θ₂, θ₃, θ₄), the axis direction g = cos β a + sin β b; R (3, 3, 3), t (3, 3)
+    (scratch as :func:`_scratch`)."""
     g = V[2]
     cb, sb = math.cos(z[0]), math.sin(z[0])
     for i in range(3):
@@ -369,25 +380,51 @@ def hs_grid(a, b, R, t, p, nb, nt):
                     Atr[j, ib, it, u] = A[0, u] * r[0] + A[1, u] * r[1] + A[2, u] * r[2]
                 rtr[j, ib, it] = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
     f = np.empty((nb, nt, nt, nt))
-    M, v, x = np.empty((5, 5)), np.empty(5), np.empty(5)
+    M, S, v, sv = np.empty((5, 5)), np.empty((5, 5)), np.empty(5), np.empty(5)
     for ib in range(nb):
         for i2 in range(nt):
             for i3 in range(nt):
+                for u in range(5):                  # positions 2 and 3, once for every θ₄
+                    for w in range(u + 1):
+                        S[u, w] = AtA[0, ib, i2, u, w] + AtA[1, ib, i3, u, w]
+                    sv[u] = Atr[0, ib, i2, u] + Atr[1, ib, i3, u]
+                sr = rtr[0, ib, i2] + rtr[1, ib, i3]
                 for i4 in range(nt):
                     for u in range(5):
-                        for w in range(5):
-                            M[u, w] = AtA[0, ib, i2, u, w] + AtA[1, ib, i3, u, w] + AtA[2, ib, i4, u, w]
+                        for w in range(u + 1):
+                            M[u, w] = S[u, w] + AtA[2, ib, i4, u, w]
                         M[u, u] += 1e-12
-                        v[u] = Atr[0, ib, i2, u] + Atr[1, ib, i3, u] + Atr[2, ib, i4, u]
-                    rr = rtr[0, ib, i2] + rtr[1, ib, i3] + rtr[2, ib, i4]
-                    if _spd_solve(M, v, x):
-                        s = rr
-                        for u in range(5):
-                            s -= v[u] * x[u]
-                        f[ib, i2, i3, i4] = math.sqrt(abs(s))
-                    else:
-                        f[ib, i2, i3, i4] = np.nan
+                        v[u] = sv[u] + Atr[2, ib, i4, u]
+                    f[ib, i2, i3, i4] = _misfit(M, v, sr + rtr[2, ib, i4])
     return f
+
+
+@_kernel
+def _misfit(M, v, rr):
+    """sqrt(|rr − vᵀ M⁻¹ v|) for the normal equations M (5, 5) (lower triangle read,
+    overwritten by its Cholesky factor L) and v (5,) (overwritten by L⁻¹ v): the
+    least-squares misfit, as vᵀ M⁻¹ v = |L⁻¹ v|².  NaN where M is not positive definite."""
+    n = M.shape[0]
+    s = rr
+    for j in range(n):
+        d = M[j, j]
+        for k in range(j):
+            d -= M[j, k] * M[j, k]
+        if not d > 0.0:
+            return np.nan
+        d = math.sqrt(d)
+        M[j, j] = d
+        for i in range(j + 1, n):
+            e = M[i, j]
+            for k in range(j):
+                e -= M[i, k] * M[j, k]
+            M[i, j] = e / d
+        e = v[j]
+        for k in range(j):
+            e -= M[j, k] * v[k]
+        v[j] = e / d
+        s -= v[j] * v[j]
+    return math.sqrt(abs(s))
 
 
 # ------------------------------------------------------------------ Levenberg–Marquardt
@@ -395,36 +432,42 @@ _HH, _HS = 0, 1       # the residuals the Levenberg–Marquardt below knows
 
 
 @_kernel
-def _residual(kind, z, k, P, R, t, v, f, ws):
+def _residual(kind, z, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
     """System k's residual f at z: the HH misfit about base P[k] with pitches v, or the HS
-    residual on the circle P[0] = (a, b) with pitch v[0]."""
+    residual on the circle P[0] = (a, b) with pitch v[0] (scratch as :func:`_scratch`)."""
     if kind == _HH:
-        _hh_residual(z, P[k], R, t, v, f, ws)
+        _hh_residual(z, P[k], R, t, v, f, V, Ms, A6, rhs6, M, b, x)
     else:
-        _hs_residual(z, P[0, 0], P[0, 1], R, t, v[0], f, ws)
+        _hs_residual(z, P[0, 0], P[0, 1], R, t, v[0], f, V, Ms, A9, rhs9, Q)
 
 
 @_kernel
-def _evaluate(kind, z, k, P, R, t, v, h, f, J, fp, fm, zt, ws):
-    """Residual f (r,) and central-difference Jacobian J (r, n) of system k at z; returns
-    the cost |f|² (inf where anything is not finite)."""
-    n = z.shape[0]
-    _residual(kind, z, k, P, R, t, v, f, ws)
-    ok = True
-    for i in range(n):
-        zt[:] = z
-        zt[i] = z[i] + h
-        _residual(kind, zt, k, P, R, t, v, fp, ws)
-        zt[i] = z[i] - h
-        _residual(kind, zt, k, P, R, t, v, fm, ws)
-        for r in range(f.shape[0]):
-            J[r, i] = (fp[r] - fm[r]) / (2 * h)
-            ok = ok and math.isfinite(J[r, i])
+def _cost(kind, z, k, P, R, t, v, f, S):
+    """Residual f (r,) of system k at z; returns |f|² (inf where not finite); S the
+    scratch arrays (:func:`_scratch`)."""
+    _residual(kind, z, k, P, R, t, v, f, S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7],
+              S[8], S[9])
     cost = 0.0
     for r in range(f.shape[0]):
-        ok = ok and math.isfinite(f[r])
         cost += f[r] * f[r]
-    return cost if ok else np.inf
+    return cost if math.isfinite(cost) else np.inf
+
+
+@_kernel
+def _jacobian(kind, z, k, P, R, t, v, h, J, fp, fm, zt, S):
+    """Central-difference Jacobian J (r, n) of system k at z; False where not finite."""
+    V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q = S
+    ok = True
+    for i in range(z.shape[0]):
+        zt[:] = z
+        zt[i] = z[i] + h
+        _residual(kind, zt, k, P, R, t, v, fp, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
+        zt[i] = z[i] - h
+        _residual(kind, zt, k, P, R, t, v, fm, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
+        for r in range(fp.shape[0]):
+            J[r, i] = (fp[r] - fm[r]) / (2 * h)
+            ok = ok and math.isfinite(J[r, i])
+    return ok
 
 
 @_kernel
@@ -449,10 +492,12 @@ def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
     zt, za, step, Jtf, diag = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     JtJ = np.empty((n, n))
     hist = np.empty(iters + 1)
-    ws = _workspace()
+    S = _scratch()
     for k in range(N):
         zk = z[k]
-        cost = _evaluate(kind, zk, k, P, R, t, v, h, f, J, fp, fm, zt, ws)
+        cost = _cost(kind, zk, k, P, R, t, v, f, S)
+        if not _jacobian(kind, zk, k, P, R, t, v, h, J, fp, fm, zt, S):
+            cost = np.inf
         lam = 1e-3
         for it in range(iters):
             hist[it] = cost
@@ -484,8 +529,9 @@ def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
                 step[:] = 0.0
             for i in range(n):
                 za[i] = zk[i] + (step[i] if math.isfinite(step[i]) else 0.0)
-            cn = _evaluate(kind, za, k, P, R, t, v, h, fn, Jn, fp, fm, zt, ws)
-            if cn < cost:
+            # the trial's Jacobian only where it is accepted (a rejected step costs one residual)
+            cn = _cost(kind, za, k, P, R, t, v, fn, S)
+            if cn < cost and _jacobian(kind, za, k, P, R, t, v, h, Jn, fp, fm, zt, S):
                 zk[:] = za
                 f[:] = fn
                 J[:, :] = Jn

@@ -86,7 +86,8 @@ def bench_links(quick: bool = False) -> list[str]:
     baseline is ``least_squares`` from random starts on the same equations."""
     from synthesis import Screw
     from synthesis.binary import _task
-    from synthesis.hooke import _directions4, uc_links, uh_links, up_links, ur_links
+    from synthesis.helical import helical_links
+    from synthesis.hooke import u_directions, uc_links, uh_links, up_links, ur_links
     from synthesis.prismatic import hp_links, ph_links
     from synthesis.spherical import (hs_links, ps_links, rs_links_at, sh_links, sp_links,
                                      sr_links, task_frame)
@@ -136,6 +137,9 @@ def bench_links(quick: bool = False) -> list[str]:
          lambda T: _hs_equations(T, a, b, pitch))
     case(f"SH (pitch {pitch})", 4, lambda: sh_links(scr, pitch, psi),
          lambda T: _hs_equations(T, a, b, pitch), True)
+    case(f"HH (pitches {pitch}, {-pitch})", 3, lambda: helical_links(scr[0], scr[1], pitch,
+                                                                      -pitch))
+    case(f"RH (pitch {pitch})", 3, lambda: helical_links(scr[0], scr[1], 0.0, pitch))
     case("PS", 3, lambda: ps_links(scr[:2], psi), lambda T: _ps_equations(T, a, b, 0.0))
     case("SP", 3, lambda: sp_links(scr[:2], psi), lambda T: _ps_equations(T, a, b, 0.0), True)
     case("UR", 4, lambda: ur_links(scr, azimuth=psi))
@@ -147,12 +151,19 @@ def bench_links(quick: bool = False) -> list[str]:
     case("HP (pitch 0.25)", 2, lambda: hp_links(scr[0], pitch=pitch, moving_direction=d))
     # the U direction problem alone (the part of UR beyond SR): 4 bilinear equations
     base = sr_links(scr, psi)[0].sphere_rotations
-    t_u, pairs = _timeit(lambda: _directions4(base))
+    t_u, pairs = _timeit(lambda: u_directions(base))
     f, n, key, ok = _u_equations(base)
     tb, found = _multistart(f, n, key, ok, starts, rng)
     missed = sum(min([abs(abs(k @ p[0]) - 1) for p in pairs] + [9]) > 1e-6 for k in found)
     rows.append(f"| U directions (4 orientations) | 4 | {t_u * 1e3:.2f} | {len(pairs)} | — | "
                 f"{tb * 1e3:.0f} | {len(found)} | {missed} | {tb / t_u:.0f}× |")
+    from linkwright.bench import first_call
+    t_compile, t_load = first_call(
+        "import time\nfrom linkwright.bench_families import generate\n"
+        "from synthesis.helical import helical_links\nfrom synthesis.spherical import hs_links\n"
+        "s = generate('RHS', 0)[0]\nt0 = time.perf_counter()\n"
+        "helical_links(s[0], s[1], 0.25, 0.0)\nhs_links(s[:3], 0.25, 0.9)\n"
+        "t = time.perf_counter() - t0")
     return [
         "## synthesis: binary links with S, U, H and P joints at explicit free parameters",
         "",
@@ -164,4 +175,7 @@ def bench_links(quick: bool = False) -> list[str]:
         "| link | positions | ms / call | links | largest residual | baseline ms | baseline "
         "solutions | missed | time ratio |",
         "|---|---|---|---|---|---|---|---|---|",
-    ] + rows + [""]
+    ] + rows + ["", f"The helical searches (HH, RH, HR, HS, SH, UH) run compiled kernels "
+                      f"(`synthesis.kernels`, numba): first helical_links + hs_links call in a new "
+                      f"installation {t_compile:.1f} s (compiling), in a later process "
+                      f"{t_load:.2f} s (cache load and the two searches).", ""]

@@ -25,7 +25,14 @@ through all positions by the engine (one mechanism, one batched call).  In the t
 joint's row holds a (``j{k}_ux…``), O (``j{k}_x…``), b (``u_cross_x, u_cross_y,
 u_cross_z``) and the angles (``q{k}_pos{p}`` = α, ``d{k}_pos{p}`` = γ); the other joints'
 ``q`` is the driven coordinate (angle, or a P joint's slide) and ``d`` the slide along the
-axis (pitch · angle for H, free for C).
+axis (pitch · angle for H, free for C).  The cross axis b is given with its largest
+component positive (b and −b are the same joint; γ turns sign with it).
+
+A task is solved in a few batched passes, not per variant: the main links of all subsets
+of positions and all free-parameter choices together (:func:`synthesis.hooke._u_grids`),
+the transition joints of every (link, transition position, angle) in one call
+(:func:`synthesis.transition.transition_joints`), the variants' joints and values as
+arrays, and the table as columns.
 """
 from __future__ import annotations
 
@@ -33,14 +40,11 @@ import itertools
 
 import numpy as np
 
-from closure import Mechanism
-
-from .decompose import _grid_numbers, angle_grid, nan_geometry, task_positions
+from .decompose import PITCH_OF_KIND, _grid_numbers, angle_grid, task_positions
 from .errors import SynthesisError
 from .screw import Line
-from .transition import transition_joint
+from .transition import Transitions, transition_joints
 from .validate import array
-from .verify import _frames_of, in_chunks, pose_errors
 
 __all__ = ["hooke_arrangements", "hooke_family_dyads"]
 
@@ -84,12 +88,6 @@ def hooke_arrangements(family: str, n_positions: int | None = None) -> list[tupl
     return out
 
 
-def _u_frame(a, b, O):
-    F = np.eye(4)
-    F[:3, 0], F[:3, 1], F[:3, 2], F[:3, 3] = b, np.cross(a, b), a, O
-    return F
-
-
 def _about(R, O):
     S = np.eye(4)
     S[:3, :3], S[:3, 3] = R, O - R @ O
@@ -101,42 +99,16 @@ def _rot(u, ang):
     return np.eye(3) + np.sin(ang) * K + (1 - np.cos(ang)) * K @ K
 
 
-#: the engine coordinates each joint kind is driven by: slot 0 (angle) and / or 1 (slide)
-_SLOTS = {"R": (0,), "H": (0,), "P": (1,), "C": (0, 1), "U": (0, 1)}
-
-
-@in_chunks
 def verify_hooke(chains, targets, length: float) -> np.ndarray:
-    """Pose errors of chains with a U joint, driven by the engine in one batched call.
+    """Pose errors of chains with a U joint, driven by the engine in one bulk evaluation
+    (:func:`synthesis.verify.verify_driven`).
 
     chains : list of (types, joints, values, pitch): ``joints`` per joint a Line (R, P, H,
     C) or ``(a, b, O)`` (U); ``values (P, 3, 2)``: (angle, slide) of R, P, H, C joints, (α,
     γ) of the U joint; ``pitch`` (length/rad) of an H joint.
     """
-    if not chains:
-        return np.zeros(0)
-    T = np.asarray(targets, float)
-    plain = [j for types, joints, *_ in chains for t, j in zip(types, joints) if t != "U"]
-    pf = iter(_frames_of(plain))
-    m = Mechanism()
-    cols = []
-    for v, (types, joints, vals, pitch) in enumerate(chains):
-        names = ["ground", f"A{v}", f"B{v}", f"body{v}"]
-        for n in names[1:]:
-            m.add_link(n)
-        for k, (t, j) in enumerate(zip(types, joints)):
-            jn = f"v{v}j{k + 1}"
-            frame = _u_frame(*j) if t == "U" else next(pf)
-            m.add_joint(jn, t, names[k], names[k + 1], at=frame, validate=False,
-                        pitch=pitch if t == "H" else None)
-            for i, slot in enumerate(_SLOTS[t]):
-                m.add_input(jn, i)
-                cols.append(vals[:, k, slot])
-    pose = m.solve(np.stack(cols, 1), continuation=False)
-    link = pose.kinematics(twists=False)["link"]
-    bodies = link[:, [m.links.index(f"body{v}") for v in range(len(chains))]]
-    rot, pos = pose_errors(bodies, T[:, None], length)
-    return np.maximum(rot.max(0), pos.max(0))
+    from .verify import verify_driven
+    return verify_driven(chains, targets, length)
 
 
 def _centres(centre, screws, reach):
@@ -155,33 +127,23 @@ def _centres(centre, screws, reach):
     return c0 + reach * DEFAULT_CENTRE_OFFSETS @ task_frame(screws).T
 
 
-def _main_links(main, scr, psi, chi, ph, O, frame):
-    from .hooke import uc_links, uh_links, up_links, ur_links
-    if main == "UR":
-        return ur_links(scr, azimuth=psi, frame=frame)
-    if main == "UP":
-        return up_links(scr, slide_azimuth=psi, axis_azimuth=chi, frame=frame)
-    if main == "UH":
-        return uh_links(scr, pitch=ph, azimuth=psi, frame=frame)
-    return uc_links(scr, centre=O, azimuth=psi, frame=frame)
-
-
-def _transitions(y, yl, ph, D, reach, angles):
-    """[(transition angle or None, root, Transition)] of the R joint carrying J3."""
-    if y == "C":
-        return [(float(ang), 0, tr) for ang in angles
-                for tr in transition_joint("R", "C", yl, 0.0, D, reach, angle=float(ang))]
-    trs = transition_joint("R", y, yl, ph, D, reach)
-    if not trs:
-        raise SynthesisError("transition: no real root of the R transition carrying H (no "
-                             "angle of J3 leaves a pure rotation)")
-    return [(None, root, tr) for root, tr in enumerate(trs)]
+def _flipped_rows(u) -> np.ndarray:
+    """:func:`synthesis.decompose._flipped` of each row of ``u (k, 3)``: whether its
+    largest component (the first of equal ones) is negative."""
+    i = np.argmax(np.abs(u) - np.array([0.0, 1e-12, 2e-12]), -1)
+    return np.take_along_axis(u, i[:, None], -1)[:, 0] < 0
 
 
 def hooke_family_dyads(family: str, screws, *, azimuth=None, axis_azimuth=None, pitch=None,
-                       centre=None, transition_angle=None) -> list[dict]:
-    """Rows (dicts) of every variant of RUR, URR, RUP, URP, RUH, URH, RUC or URC; see the
-    module notes and :func:`synthesis.enumerate_dyads`.
+                       centre=None, transition_angle=None) -> dict:
+    """The table of every variant of RUR, URR, RUP, URP, RUH, URH, RUC or URC as columns
+    (name → array of one value per variant, in the table's column order); see the module
+    notes and :func:`synthesis.enumerate_dyads`.
+
+    The main links of each subset of positions are solved for all free-parameter choices
+    at once (:mod:`synthesis.hooke`), the transition joints of every (link, transition
+    position, angle) in one call (:func:`synthesis.transition.transition_joints`), and the
+    variants' joints, values and columns as arrays.
 
     Parameters
     ----------
@@ -197,8 +159,17 @@ def hooke_family_dyads(family: str, screws, *, azimuth=None, axis_azimuth=None, 
     transition_angle : float or array_like (m,)
         J3's rotation (rad) while the R transition joint carries the C joint (RUC, URC);
         default −1, 1.
+
+    Returns
+    -------
+    dict
+        Column name → numpy.ndarray (n_variants,).
+
+    Raises
+    ------
+    SynthesisError
+        A choice that is not a free parameter of the family, or bad input (naming it).
     """
-    from .decompose import _flipped
     from .sphere_families import _helical_pitch
     from .spherical import task_frame
     T, N, arr, reach = task_positions(family, screws, hooke_arrangements)
@@ -213,134 +184,263 @@ def hooke_family_dyads(family: str, screws, *, azimuth=None, axis_azimuth=None, 
         else [None]
     Os = _centres(centre, screws, reach) if y == "C" else [None]
     angles = _grid_numbers(transition_angle, "transition_angle", DEFAULT_TRANSITION_ANGLES)
+    na = len(angles) if y == "C" else 1
     frame = task_frame(screws)
-    rows, chains = [], []
+    n_groups = len(psis) * len(chis) * len(Os)
+    # ---- main links of every subset of positions (block), all choices at once
+    from .hooke import _u_grids
+    blocks, links = [], []
     for name, main, x, n_b, k in arr:
-        for others in itertools.combinations(range(1, N), n_b - 1):
+        subsets = list(itertools.combinations(range(1, N), n_b - 1))
+        uls = _u_grids(main, list(screws), [(0,) + others for others in subsets], list(psis),
+                       list(chis), ph, Os, frame, 1e-9)
+        for others, ul in zip(subsets, uls):
             Pm = (0,) + others
-            rest = [i for i in range(N) if i not in Pm]
-            scr = [screws[i - 1] for i in others]
-            for psi, chi, O_c in itertools.product(psis, chis, Os):
-                params = {"azimuth": float(psi)}
-                if chi is not None:
-                    params["axis_azimuth"] = float(chi)
-                if O_c is not None:
-                    params.update(centre_x=O_c[0], centre_y=O_c[1], centre_z=O_c[2])
-                try:
-                    links = _main_links(main, scr, float(psi), chi, ph, O_c, frame)
-                    err = ""
-                except SynthesisError as e:
-                    links, err = [], str(e)
-                if not links:
-                    for s in Pm:
-                        rows.append(_failed(family, name, main, Pm, s, rest, params, ph,
-                                            err or f"no real {main} link at these parameters"))
-                    continue
-                for lk in links:
-                    a, O, b = lk.fixed_axis.direction, lk.fixed_axis.point, lk.cross_axis
-                    al, ga = lk.fixed_angles, lk.cross_angles
-                    M = lk.moving_axis
-                    mv = np.stack([lk.moving_angles, lk.moving_slides], 1)   # (n_b, 2)
-                    if _flipped(M.direction):
-                        M, mv = Line._exact(-M.direction, M.point), -mv
-                    for si, s in enumerate(Pm):
-                        Ts = T[s]
-                        yl = Line._exact(Ts[:3, :3] @ M.direction, Ts[:3, :3] @ M.point + Ts[:3, 3])
-                        try:
-                            trs = _transitions(y, yl, ph, (T[rest[0]] @ np.linalg.inv(Ts))[None],
-                                               reach, angles)
-                        except SynthesisError as e:
-                            rows.append(_failed(family, name, main, Pm, s, rest, params, ph,
-                                                str(e)))
-                            continue
-                        for ang, root, tr in trs:
-                            joints, vals = _chain(name, a, b, O, al, ga, M, mv, Pm, si, rest,
-                                                  tr, N)
-                            p = dict(params)
-                            if ang is not None:
-                                p["transition_angle"] = ang
-                            row = _row(family, name, main, Pm, s, rest, p, joints, vals, ph)
-                            if y == "H":
-                                row["root"] = root          # which root of R carrying H
-                            rows.append(row)
-                            chains.append((len(rows) - 1, (family, joints, vals, ph)))
-    res = verify_hooke([c for _, c in chains], T, reach)
-    for (i, _), r in zip(chains, res):
-        rows[i]["residual"] = float(r)
-    for v, row in enumerate(rows, start=1):
-        row["variant"] = v
-    return rows
+            blocks.append((name, main, Pm, [i for i in range(N) if i not in Pm], ul.errors))
+            if len(ul.base):
+                links.append((len(blocks) - 1, ul))
+    n_b = arr[0][3]
+    lk = _link_arrays(links, n_b)
+    # ---- groups without a link: one failed row per transition position
+    has = np.zeros((len(blocks), n_groups), bool)
+    has[lk["block"], lk["group"]] = True
+    fb, fg = np.nonzero(~has)
+    failed = [(b, g, -1, si, blocks[b][4][g] or f"no real {blocks[b][1]} link at these "
+               "parameters") for b, g in zip(fb, fg) for si in range(n_b)]
+    # ---- transition joints of every (link, position s, angle)
+    tr, pair_err = _transition_problems(lk, blocks, T, y, ph, reach, angles, n_b, na)
+    L = len(lk["block"])
+    for l, si in zip(*np.nonzero(pair_err != "")):
+        failed.append((lk["block"][l], lk["group"][l], l, si, pair_err[l, si]))
+    prob = tr.owner
+    keep = (pair_err.ravel()[prob // na] == "") if L else np.zeros(0, bool)
+    j = np.flatnonzero(keep)
+    prob = prob[j]
+    l, si, ai = prob // (n_b * na), (prob // na) % n_b, prob % na
+    root = j - np.searchsorted(tr.owner, tr.owner[j])
+    V = len(j)
+    # ---- the variants' joints and values, their verification
+    geo = _variants(blocks, lk, l, si, tr, j, N)
+    chains = _chains(family, blocks, lk, l, geo, ph)
+    residual = verify_hooke(chains, T, reach)
+    # ---- rows in the table's order
+    fa = np.array(failed, dtype=object).reshape(-1, 5)
+    kb = np.r_[lk["block"][l], fa[:, 0].astype(int)]
+    kg = np.r_[lk["group"][l], fa[:, 1].astype(int)]
+    kl = np.r_[l, fa[:, 2].astype(int)]
+    ks = np.r_[si, fa[:, 3].astype(int)]
+    kt = np.r_[j, -np.ones(len(fa), int)]
+    order = np.lexsort((kt, ks, kl, kg, kb))
+    return _columns(family, blocks, order, V, kb, kg, ks, fa[:, 4], geo, residual,
+                    angles[ai] if y == "C" else None, root if y == "H" else None,
+                    psis, chis, Os, ph, n_b)
 
 
-def _chain(name, a, b, O, al, ga, M, mv, Pm, si, rest, tr, N):
-    """The chain's joints (ground first) and values ``(N, 3, 2)`` from the main link and
-    the transition joint at position s = Pm[si]."""
-    from .decompose import _flipped
-    vals = np.zeros((N, 3, 2))
+def _link_arrays(links, n_b) -> dict:
+    """The main links of every block as arrays (k links): block, group (k,); a, b, O
+    (the U joint), Md, Mp (the body joint's axis, oriented by the table's rule) (k, 3);
+    al, ga (k, n_b) the U angles; mv (k, n_b, 2) the body joint's (angle, slide)."""
+    if not links:
+        z3, zn = np.zeros((0, 3)), np.zeros((0, n_b))
+        return dict(block=np.zeros(0, int), group=np.zeros(0, int), a=z3, b=z3, O=z3, Md=z3,
+                    Mp=z3, al=zn, ga=zn, mv=np.zeros((0, n_b, 2)))
+    cat = lambda f: np.concatenate([f(ul) for _, ul in links])
+    out = dict(block=np.concatenate([np.full(len(ul.base), b) for b, ul in links]),
+               group=cat(lambda ul: ul.group), a=cat(lambda ul: ul.a),
+               b=cat(lambda ul: ul.b), O=cat(lambda ul: ul.bases.O[ul.base]),
+               Md=cat(lambda ul: ul.bases.md[ul.base]), Mp=cat(lambda ul: ul.bases.mp[ul.base]),
+               al=cat(lambda ul: ul.al), ga=cat(lambda ul: ul.ga),
+               mv=cat(lambda ul: np.stack([ul.bases.mang[ul.base], ul.bases.msl[ul.base]], -1)))
+    fl = _flipped_rows(out["Md"])
+    out["Md"] = np.where(fl[:, None], -out["Md"], out["Md"])
+    out["mv"] = np.where(fl[:, None, None], -out["mv"], out["mv"])
+    return out
+
+
+def _transition_problems(lk, blocks, T, y, ph, reach, angles, n_b, na):
+    """The R transition joints carrying J3 from each link's position s to the remaining
+    one, every (link, s, angle) problem in one call: the joints, and per (link, s) the
+    reason it has none (the first angle's with one), (k, n_b) strings."""
+    L = len(lk["block"])
+    if not L:
+        z = np.zeros((0, 3))
+        return Transitions(np.zeros(0, int), z, z, np.zeros((0, 1, 2)), np.zeros((0, 1, 2)),
+                           np.zeros(0, object)), np.zeros((0, n_b), object)
+    Pm = np.array([b[2] for b in blocks]).reshape(len(blocks), n_b)
+    rest = np.array([b[3][0] for b in blocks], int)
+    s = Pm[lk["block"]]                                          # (L, n_b)
+    Ts = T[s]
+    D = T[rest[lk["block"]]][:, None] @ np.linalg.inv(T)[s]      # (L, n_b, 4, 4)
+    d = np.einsum("lsij,lj->lsi", Ts[..., :3, :3], lk["Md"])
+    p = np.einsum("lsij,lj->lsi", Ts[..., :3, :3], lk["Mp"]) + Ts[..., :3, 3]
+    rep = lambda v: np.repeat(v.reshape((L * n_b,) + v.shape[2:]), na, axis=0)
+    tr = transition_joints("R", y, rep(d), rep(p), 0.0 if y == "C" else ph, rep(D)[:, None],
+                           reach, angle=np.tile(angles, L * n_b) if y == "C" else None)
+    err = tr.error.reshape(L, n_b, na)
+    first = np.argmax(err != "", -1)
+    pair = np.take_along_axis(err, first[..., None], -1)[..., 0].astype(object)
+    if y == "H":
+        n_joints = np.bincount(tr.owner // na, minlength=L * n_b).reshape(L, n_b)
+        pair = np.where((pair == "") & (n_joints == 0),
+                        "transition: no real root of the R transition carrying H (no angle of "
+                        "J3 leaves a pure rotation)", pair)
+    return tr, pair.reshape(L, n_b)
+
+
+def _variants(blocks, lk, l, si, tr, j, N) -> dict:
+    """Joint axes and values of the V variants (link ``l``, transition position index
+    ``si``, transition joint ``j``): the transition axis X (Xd, Xp), the body joint's axis
+    point M3 (k, 3) and the values ``vals (V, N, 3, 2)`` (angle, slide per position and
+    joint; the U joint's (α, γ))."""
+    from .binary import _rot
+    V = len(l)
+    name = blocks[0][0]
     U, X = (1, 0) if name == "a" else (0, 1)
-    for i, p in enumerate(Pm):
-        vals[p, U] = al[i], ga[i]
-        vals[p, 2] = mv[i]
-    l = rest[0]
-    vals[l, U] = al[si], ga[si]
-    vals[l, X, 0] = tr.psi[0, 0]
-    vals[l, 2] = mv[si] + tr.delta[0]
+    n_b = lk["al"].shape[1]
+    Pm = np.array([b[2] for b in blocks]).reshape(len(blocks), n_b)[lk["block"][l]]
+    rest = np.array([b[3][0] for b in blocks], int)[lk["block"][l]]
+    a, b, O = lk["a"][l], lk["b"][l], lk["O"][l]
+    al, ga, mv = lk["al"][l], lk["ga"][l], lk["mv"][l]
+    Md, Mp = lk["Md"][l], lk["Mp"][l]
+    r = np.arange(V)
+    vals = np.zeros((V, N, 3, 2))
+    vals[r[:, None], Pm, U, 0] = al
+    vals[r[:, None], Pm, U, 1] = ga
+    vals[r[:, None], Pm, 2] = mv
+    als, gas = al[r, si], ga[r, si]
+    vals[r, rest, U, 0], vals[r, rest, U, 1] = als, gas
+    vals[r, rest, X, 0] = tr.psi[j, 0, 0]
+    vals[r, rest, 2] = mv[r, si] + tr.delta[j, 0]
+    dX, pX = tr.direction[j], tr.point[j]
+    dot = lambda u, v: np.sum(u * v, -1)[:, None]
     if name == "a":
-        Xl = tr.line.canonical()
+        Xd, Xp = dX, pX - dot(pX, dX) * dX                        # foot from the origin
+    else:               # turned back about O by the U joint's rotation at s, foot from O
+        Rt = np.swapaxes(_rot(a, als) @ _rot(b, gas), -1, -2)
+        Xd = np.einsum("vij,vj->vi", Rt, dX)
+        Xp = np.einsum("vij,vj->vi", Rt, pX - O) + O
+        Xp = Xp + dot(O - Xp, Xd) * Xd
+    fl = _flipped_rows(Xd) if V else np.zeros(0, bool)
+    Xd = np.where(fl[:, None], -Xd, Xd)
+    vals[:, :, X, 0] *= np.where(fl, -1.0, 1.0)[:, None]
+    if name == "b":     # the foot of the common normal with X (parallel: from X's point)
+        bb = dot(Xd, Md)
+        den = 1 - bb * bb
+        w = Xp - Mp
+        with np.errstate(invalid="ignore", divide="ignore"):
+            t = (dot(Md, w) - bb * dot(Xd, w)) / den
+        M3 = Mp + np.where(den < 1e-12, dot(Xp - Mp, Md), t) * Md
     else:
-        G = np.linalg.inv(_about(_rot(a, al[si]) @ _rot(b, ga[si]), O))
-        Xl = Line._exact(G[:3, :3] @ tr.line.direction, G[:3, :3] @ tr.line.point + G[:3, 3])
-        Xl = Line._exact(Xl.direction, Xl.foot_from(O))
-    if _flipped(Xl.direction):
-        Xl = Line._exact(-Xl.direction, Xl.point)
-        vals[:, X, 0] *= -1
-    M3 = M.canonical(Xl) if name == "b" else Line._exact(M.direction, M.foot_from(O))
-    return ([Xl, (a, b, O), M3] if name == "a" else [(a, b, O), Xl, M3]), vals
+        M3 = Mp + dot(O - Mp, Md) * Md
+    return dict(Xd=Xd, Xp=Xp, M3=M3, vals=vals, a=a, b=b, O=O, Md=Md, name=name)
 
 
-def _base(family, name, main, Pm, s, rest):
-    return {"family": family, "variant": 0,
-            "order": (f"{main} through {tuple(p + 1 for p in Pm)}; R "
-                      f"({'J1' if name == 'a' else 'J2'}) carries position {s + 1} to "
-                      f"{tuple(i + 1 for i in rest)}"),
-            "arrangement": name, "transition": "R" + family[2]}
+def _joint_columns(geo) -> list:
+    """Per joint (ground first) its (direction, point) arrays (V, 3); the U joint's are
+    its first axis and centre."""
+    X, Uj, M = (geo["Xd"], geo["Xp"]), (geo["a"], geo["O"]), (geo["Md"], geo["M3"])
+    return [X, Uj, M] if geo["name"] == "a" else [Uj, X, M]
 
 
-def _tail(row, main, Pm, s, params):
-    row.update(main_link=main, main_positions=str(tuple(p + 1 for p in Pm)),
-               transition_position=s + 1, **params)
+def _chains(family, blocks, lk, l, geo, ph) -> list:
+    """The variants as chains for :func:`verify_hooke`."""
+    a, b, O, vals = geo["a"], geo["b"], geo["O"], geo["vals"]
+    lines = [[Line._exact(d, p) for d, p in zip(geo[u], geo[q])] for u, q in (("Xd", "Xp"),
+                                                                              ("Md", "M3"))]
+    if geo["name"] == "a":
+        joints = [[x, (a[v], b[v], O[v]), m] for v, (x, m) in enumerate(zip(*lines))]
+    else:
+        joints = [[(a[v], b[v], O[v]), x, m] for v, (x, m) in enumerate(zip(*lines))]
+    return [(family, js, vals[v], ph) for v, js in enumerate(joints)]
 
 
-def _row(family, name, main, Pm, s, rest, params, joints, vals, pitch):
-    row = _base(family, name, main, Pm, s, rest)
-    for k, (t, j) in enumerate(zip(family, joints), start=1):
-        row[f"j{k}_type"] = t
-        u, p = (j[0], j[2]) if t == "U" else (j.direction, j.point)
-        row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"] = u
-        row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"] = p
-        row[f"j{k}_pitch"] = {"R": 0.0, "P": np.inf, "H": pitch}.get(t, np.nan)
+def _columns(family, blocks, order, V, kb, kg, ks, reasons, geo, residual, tangle, root,
+             psis, chis, Os, ph, n_b) -> dict:
+    """The table's columns: rows ``order`` of the V regular rows followed by the failed
+    ones (block, group, position index, reason), in the column order of the row dicts
+    the table was built from (the first row's keys, then the other kind's)."""
+    n = len(order)
+    N = geo["vals"].shape[1]
+    reg = order < V                                               # regular rows (in order)
+    ri = order[reg]
+    col = {}
+
+    def put(key, reg_vals, fail_vals=np.nan, dtype=float):
+        out = np.empty(n, dtype)
+        if dtype is object or dtype is float:
+            out[:] = fail_vals
+        out[reg] = np.asarray(reg_vals)[ri] if np.ndim(reg_vals) else reg_vals
+        col[key] = out
+    Pm = np.array([b[2] for b in blocks]).reshape(len(blocks), n_b)
+    blk, grp, sidx = kb[order], kg[order], ks[order]
+    s = Pm[blk, sidx]
+    obj = lambda vals: np.array(vals, dtype=object)
+    # the text columns of each block (and transition position), indexed per row
+    orders = obj([[f"{b[1]} through {tuple(p + 1 for p in b[2])}; R "
+                   f"({'J1' if b[0] == 'a' else 'J2'}) carries position {p + 1} to "
+                   f"{tuple(r + 1 for r in b[3])}" for p in b[2]] for b in blocks])
+    base = {"family": np.full(n, family, dtype=object), "variant": np.arange(1, n + 1),
+            "order": orders[blk, sidx], "arrangement": obj([b[0] for b in blocks])[blk],
+            "transition": np.full(n, "R" + family[2], dtype=object)}
+    col.update(base)
+    fail_keys, reg_keys = list(base), list(base)
+    joints = _joint_columns(geo)
+    for k, t in enumerate(family, start=1):
+        col[f"j{k}_type"] = np.full(n, t, dtype=object)
+        for c, (arr_, i) in zip(("ux", "uy", "uz", "x", "y", "z"),
+                                [(joints[k - 1][0], i) for i in range(3)]
+                                + [(joints[k - 1][1], i) for i in range(3)]):
+            put(f"j{k}_{c}", arr_[:, i])
+        keys = [f"j{k}_{c}" for c in ("type", "ux", "uy", "uz", "x", "y", "z", "pitch")]
+        col[f"j{k}_pitch"] = np.full(n, ph if t == "H" else PITCH_OF_KIND.get(t, np.nan))
+        fail_keys += keys
+        reg_keys += keys
         if t == "U":
-            row["u_cross_x"], row["u_cross_y"], row["u_cross_z"] = j[1]
-    row["residual"] = np.nan
-    row["reason"] = ""
-    _tail(row, main, Pm, s, params)
-    for p in range(len(vals)):
+            for i, c in enumerate("xyz"):
+                put(f"u_cross_{c}", geo["b"][:, i])
+            reg_keys += ["u_cross_x", "u_cross_y", "u_cross_z"]
+    put("residual", residual)
+    rs = np.full(n, "", dtype=object)
+    rs[~reg] = reasons[order[~reg] - V]
+    col["reason"] = rs
+    col["main_link"] = obj([b[1] for b in blocks])[blk]
+    col["main_positions"] = obj([str(tuple(p + 1 for p in b[2])) for b in blocks])[blk]
+    col["transition_position"] = s + 1
+    tail = ["residual", "reason", "main_link", "main_positions", "transition_position"]
+    nc, no = len(chis), len(Os)
+    col["azimuth"] = np.asarray(psis, float)[grp // (nc * no)]
+    tail.append("azimuth")
+    if chis[0] is not None:
+        col["axis_azimuth"] = np.asarray(chis, float)[(grp // no) % nc]
+        tail.append("axis_azimuth")
+    if Os[0] is not None:
+        for i, c in enumerate("xyz"):
+            col[f"centre_{c}"] = np.asarray(Os, float)[grp % no, i]
+        tail += ["centre_x", "centre_y", "centre_z"]
+    fail_keys += tail
+    reg_keys += tail
+    if tangle is not None:
+        put("transition_angle", tangle)
+        reg_keys.append("transition_angle")
+    vals = geo["vals"]
+    for p in range(N):
         for k, t in enumerate(family):
-            a, sl = vals[p, k]
-            row[f"q{k + 1}_pos{p + 1}"] = sl if t == "P" else a
-            row[f"d{k + 1}_pos{p + 1}"] = sl
-    return row
-
-
-def _failed(family, name, main, Pm, s, rest, params, pitch, reason):
-    row = _base(family, name, main, Pm, s, rest)
-    nan_geometry(row, family)
-    if "H" in family:
-        row[f"j{family.index('H') + 1}_pitch"] = pitch
-    row["residual"] = np.nan
-    row["reason"] = reason
-    _tail(row, main, Pm, s, params)
-    return row
+            put(f"q{k + 1}_pos{p + 1}", vals[:, p, k, 1 if t == "P" else 0])
+            put(f"d{k + 1}_pos{p + 1}", vals[:, p, k, 1])
+            reg_keys += [f"q{k + 1}_pos{p + 1}", f"d{k + 1}_pos{p + 1}"]
+    if root is not None:                        # which root of R carrying H
+        if reg.all():
+            col["root"] = np.asarray(root, int)[ri]
+        else:
+            put("root", np.asarray(root, float))
+        reg_keys.append("root")
+    first, other = (reg_keys, fail_keys) if reg[0] else (fail_keys, reg_keys)
+    if reg.all():
+        other = []
+    elif not reg.any():
+        first, other = fail_keys, []
+    keys = first + [k for k in other if k not in first]
+    return {k: col[k] for k in keys}
 
 
 ARRANGEMENTS = hooke_arrangements

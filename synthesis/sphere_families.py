@@ -25,16 +25,16 @@ from __future__ import annotations
 
 import itertools
 import re
+from dataclasses import dataclass
 
 import numpy as np
 
 from .binary import _rot
-from .decompose import angle_grid, nan_geometry, task_positions
+from .decompose import angle_grid, task_positions
 from .errors import SynthesisError
 from .screw import Line
 from .validate import number
 from .verify import verify_points
-from .dyads import _row
 
 __all__ = ["sphere_arrangements", "sphere_family_dyads", "SPHERE_MAIN_POSITIONS"]
 
@@ -100,8 +100,8 @@ def _renumbered(err: str, others) -> str:
     return re.sub(r"\bS_1(\d)\b", sub, err)
 
 
-def sphere_family_dyads(family: str, screws, *, azimuth=None, pitch=None) -> list[dict]:
-    """Rows (dicts) of every variant of a sphere-ended family; see
+def sphere_family_dyads(family: str, screws, *, azimuth=None, pitch=None) -> dict:
+    """The table of every variant of a sphere-ended family, as columns; see
     :func:`synthesis.enumerate_dyads`.
 
     Parameters
@@ -116,6 +116,12 @@ def sphere_family_dyads(family: str, screws, *, azimuth=None, pitch=None) -> lis
         The helical joint's pitch (length/rad, nonzero), required for RHS, HRS, PHS, HPS
         (given, not a design variable); not allowed for the others.
 
+    Returns
+    -------
+    dict
+        Column name → array (one entry per variant, in table order), the columns in the
+        table's order (:func:`_columns`).
+
     Raises
     ------
     SynthesisError
@@ -126,45 +132,79 @@ def sphere_family_dyads(family: str, screws, *, azimuth=None, pitch=None) -> lis
     ph = _helical_pitch(family, pitch)
     psis = angle_grid(azimuth, "azimuth", DEFAULT_AZIMUTHS)
     frame = task_frame(screws)
-    rows, chains = [], []
-    cache = {}
+    axes = np.array([s.axis for s in screws], float)
+    points = np.array([s.point for s in screws], float)
+    mains = {}
+    parts = []
     for name, main, x, n_b, k in arr:
-        for others in itertools.combinations(range(1, N), n_b - 1):
-            Pm = (0,) + others
-            rest = [i for i in range(N) if i not in Pm]
-            if (main, Pm) not in cache:
-                cache[main, Pm] = _main_links(main, [screws[i - 1] for i in others], psis, ph,
-                                              frame, others)
-            for psi, (links, err) in zip(psis, cache[main, Pm]):
-                base = (family, name, main, x, Pm, rest, psi)
-                if not links:
-                    reason = err or f"no real {main} link on the circle of this azimuth"
-                    rows.extend(_failed(*base[:5], s, *base[5:], reason, ph) for s in Pm)
-                    continue
-                _variant_rows(base, links, T, reach, ph, rows, chains)
-    res = verify_points([c for _, c in chains], T, reach)
-    for (i, _), r in zip(chains, res):
-        rows[i]["residual"] = float(r)
-    for v, row in enumerate(rows, start=1):
-        row["variant"] = v
-    return rows
+        combos = np.array(list(itertools.combinations(range(1, N), n_b - 1)), int)
+        if main not in mains:
+            mains[main] = _main_links(main, screws, T, axes, points, combos, psis, ph, frame)
+        parts.append(_arrangement_rows(family, name, main, x, combos, psis, mains[main], T,
+                                       reach, ph))
+    cols = _columns(family, T, reach, ph, parts)
+    cols["variant"] = np.arange(1, len(cols["family"]) + 1)
+    return cols
 
 
-def _main_links(main, sub, psis, ph, frame, others) -> list[tuple]:
-    """``(links, error message)`` of the main link through positions 1 and ``others`` at
-    each azimuth of ``psis`` (the links of the task's screws ``sub``)."""
-    from .spherical import hs_links, ps_links, rs_links_grid
-    if main == "RS":
-        out = rs_links_grid(sub, [float(psi) for psi in psis], frame=frame)
+@dataclass
+class _MainLinks:
+    """The main links of every sub-task (positions 1 and ``others``) and azimuth, m in
+    all: ``block (m,)`` = sub-task · len(azimuths) + azimuth index (ascending),
+    ``elevation (m,)`` (rad), the fixed axis ``fixed_dir, fixed_point (m, 3)``, the
+    sphere centre ``centre (m, 3)`` (position 1), the fixed joint's values at the
+    sub-task's positions ``values (m, n_b)`` (angle rad, or slide for P) and per
+    sub-task and azimuth the error message ``error (S, len(azimuths))`` (``""``)."""
+
+    block: np.ndarray
+    elevation: np.ndarray
+    fixed_dir: np.ndarray
+    fixed_point: np.ndarray
+    centre: np.ndarray
+    values: np.ndarray
+    error: np.ndarray
+
+
+def _main_links(main, screws, T, axes, points, combos, psis, ph, frame) -> _MainLinks:
+    """The main link through positions 1 and each row of ``combos`` (S, n_b − 1) at each
+    azimuth of ``psis`` (``screws`` the task's, ``T`` its positions, ``axes, points``
+    (N − 1, 3) its screw axes): RS and PS links of all sub-tasks and azimuths in one pass
+    (:func:`synthesis.spherical._sphere_links_of`), HS links per sub-task and azimuth
+    (:func:`synthesis.spherical.hs_links`); errors with the screws named as in the
+    whole task."""
+    from .spherical import _sphere_links_of, hs_links
+    S, A = len(combos), len(psis)
+    subsets = np.concatenate([np.zeros((S, 1), int), combos], 1)
+    if main in ("RS", "PS"):
+        sl = _sphere_links_of(T, axes, points, subsets, psis, frame, main)
+        error = sl.error
+        out = _MainLinks(sl.block, sl.elevation, sl.fixed_dir, sl.fixed_point, sl.moving_point,
+                         sl.fixed_values, error)
     else:
-        out = []
-        for psi in psis:
-            try:
-                out.append((ps_links(sub, float(psi), frame=frame) if main == "PS" else
-                            hs_links(sub, ph, float(psi), frame=frame), ""))
-            except SynthesisError as e:
-                out.append(([], str(e)))
-    return [(links, _renumbered(err, others) if err else "") for links, err in out]
+        error = np.full((S, A), "", dtype=object)
+        links, blocks = [], []
+        for i, others in enumerate(combos.tolist()):
+            sub = [screws[j - 1] for j in others]
+            for a, psi in enumerate(psis):
+                try:
+                    lks = hs_links(sub, ph, float(psi), frame=frame)
+                except SynthesisError as e:
+                    error[i, a] = str(e)
+                    continue
+                links += lks
+                blocks += [i * A + a] * len(lks)
+        n = subsets.shape[1]
+        arr = lambda f, shape: np.array([f(lk) for lk in links], float).reshape(shape)
+        out = _MainLinks(np.array(blocks, int),
+                         arr(lambda lk: lk.parameters.get("elevation", np.nan), (-1,)),
+                         arr(lambda lk: lk.fixed_axis.direction, (-1, 3)),
+                         arr(lambda lk: lk.fixed_axis.point, (-1, 3)),
+                         arr(lambda lk: lk.moving_axis.point, (-1, 3)),
+                         arr(lambda lk: lk.fixed_angles, (-1, n)), error)
+    for i, j in zip(*np.nonzero(error != "")):
+        error[i, j] = _renumbered(error[i, j], combos[i].tolist())
+    return out
+
 
 
 def _transition_axes(x, Cs, Pm, rest, reach):
@@ -177,24 +217,27 @@ def _transition_axes(x, Cs, Pm, rest, reach):
         or ``"P"`` (the slide from s to the remaining position).
     Cs : ndarray, shape (L, N, 3)
         The sphere centre of each of the L main links in every position.
-    Pm, rest : sequence of int
-        The main link's positions (each a transition position s) and the remaining ones.
+    Pm, rest : ndarray of int, shape (L, m) and (L, k)
+        Each link's main positions (each a transition position s) and remaining ones.
     reach : float
         The task's length scale.
 
     Returns
     -------
-    u, p : ndarray, shape (L, len(Pm), 3)
+    u, p : ndarray, shape (L, m, 3)
         Axis direction and canonical point (foot of the perpendicular from the origin).
-    xv : ndarray, shape (L, len(Pm), len(rest))
+    xv : ndarray, shape (L, m, k)
         The transition joint's values at the remaining positions (angles or slides).
-    reasons : ndarray of str, shape (L, len(Pm))
+    reasons : ndarray of str, shape (L, m)
         ``""``, or why the variant has no transition joint.
     """
     from .dyads import CIRCLE_ERROR, circle_axes
-    L, m = Cs.shape[0], len(Pm)
-    p1 = Cs[:, list(Pm)].reshape(-1, 3)
-    far = [np.repeat(Cs[:, r], m, axis=0) for r in rest]
+    (L, m), k = Pm.shape, rest.shape[1]
+    if L == 0:
+        e = np.zeros((0, m, 3))
+        return e, e, np.zeros((0, m, k)), np.zeros((0, m), str)
+    p1 = Cs[np.arange(L)[:, None], Pm].reshape(-1, 3)
+    far = [np.repeat(Cs[np.arange(L), rest[:, r]], m, axis=0) for r in range(k)]
     if x == "R":
         u, O, xv, ok = circle_axes(p1, *far)
         reasons = np.where(ok, "", CIRCLE_ERROR)
@@ -204,57 +247,11 @@ def _transition_axes(x, Cs, Pm, rest, reach):
         ok = ~(nd < 1e-12 * reach)
         u, O, xv = d / np.where(ok, nd, 1.0)[:, None], p1, nd[:, None]
         reasons = np.array(["" if o else "prismatic axis: the sphere centre does not move "
-                            f"from position {Pm[i % m] + 1} to {rest[0] + 1}"
-                            for i, o in enumerate(ok)])
+                            f"from position {Pm[i // m, i % m] + 1} to {rest[i // m, 0] + 1}"
+                            for i, o in enumerate(ok.tolist())])
     p = O + np.einsum("mi,mi->m", -O, u)[:, None] * u
     return (u.reshape(L, m, 3), p.reshape(L, m, 3), xv.reshape(L, m, -1),
             reasons.reshape(L, m))
-
-
-def _variant_rows(base, links, T, reach, ph, rows, chains):
-    """Append the rows of every (main link, transition position) variant of one main-link
-    solve to ``rows``, and their chains to verify (``(row index, chain)``) to ``chains``."""
-    family, name, main, x, Pm, rest, psi = base
-    N = T.shape[0]
-    Cs = np.array([T[:, :3, :3] @ lk.moving_axis.point + T[:, :3, 3] for lk in links])
-    U, P, XV, reasons = _transition_axes(x, Cs, Pm, rest, reach)
-    X, F = (0, 1) if name == "a" else (1, 0)
-    types = family[:2]
-    pitches = [ph if t == "H" else 0.0 for t in types]
-    fixed = {f"j{kk + 1}_type": t for kk, t in enumerate(family)}
-    fixed.update({f"j{kk + 1}_pitch": {"R": 0.0, "P": np.inf, "H": ph}.get(t, np.nan)
-                  for kk, t in enumerate(family)})
-    fixed.update(j3_ux=np.nan, j3_uy=np.nan, j3_uz=np.nan)
-    dscale = np.array([1.0 if t == "P" else ph if t == "H" else 0.0 for t in types])
-    m = len(Pm)
-    FV = np.array([lk.fixed_slides if main == "PS" else lk.fixed_angles for lk in links],
-                  float)
-    lines = _joint_lines(name, main, U, P, np.array([lk.fixed_axis.direction for lk in links]),
-                         np.array([lk.fixed_axis.point for lk in links]), FV[:, :m], ph)
-    for m_i, (lk, fv) in enumerate(zip(links, FV)):
-        C = lk.moving_axis.point
-        for si, s in enumerate(Pm):
-            if reasons[m_i, si]:
-                rows.append(_failed(family, name, main, x, Pm, s, rest, psi, reasons[m_i, si],
-                                    ph))
-                continue
-            jv = np.zeros((N, 2))
-            jv[list(Pm), F] = fv[:m]
-            jv[rest, X], jv[rest, F] = XV[m_i, si], fv[si]
-            pair = [Line._exact(u, p) for u, p in lines[m_i, si]]
-            row = _row(family, 0, _order(family, name, main, x, Pm, s, rest, psi),
-                       family.replace("H", "R"), pair + [Line._exact(_EZ, C)], np.nan,
-                       arrangement=name, transition=x + "S", main_link=main,
-                       main_positions=str(tuple(p + 1 for p in Pm)),
-                       transition_position=s + 1, member=m_i, azimuth=float(psi),
-                       elevation=float(lk.parameters.get("elevation", np.nan)),
-                       joint_values=np.hstack([jv, np.full((N, 1), np.nan)]))
-            row.update(fixed)
-            d = jv * dscale
-            row.update({f"d{kk + 1}_pos{p + 1}": d[p, kk] for p in range(N)
-                        for kk in range(2)})
-            rows.append(row)
-            chains.append((len(rows) - 1, (types, pair, jv, C, pitches)))
 
 
 def _joint_lines(name, main, u, p, Fu, Fp, f, ph):
@@ -323,17 +320,137 @@ def _order(family, name, main, x, Pm, s, rest, psi):
             f"{tuple(i + 1 for i in rest)}")
 
 
-def _failed(family, name, main, x, Pm, s, rest, psi, reason, pitch=0.0):
-    row = {"family": family, "variant": 0, "order": _order(family, name, main, x, Pm, s, rest,
-                                                             psi),
-           "arrangement": name, "transition": x + "S", "main_link": main,
-           "main_positions": str(tuple(p + 1 for p in Pm)), "transition_position": s + 1,
-           "azimuth": float(psi), "residual": np.nan, "reason": reason}
-    nan_geometry(row, family)
-    for k, t in enumerate(family, start=1):
-        if t == "H":
-            row[f"j{k}_pitch"] = pitch
-    return row
+def _arrangement_rows(family, name, main, x, combos, psis, ml: _MainLinks, T, reach,
+                      ph) -> dict:
+    """The rows of one arrangement, as arrays: every (sub-task, azimuth) block in order,
+    in a block every main link (or one entry when it has none) × every transition
+    position s of the sub-task.
+
+    Returns
+    -------
+    dict
+        Per row (R rows): ``order``, ``main_positions``, ``reason`` (object arrays),
+        ``transition_position`` (int), ``azimuth``, ``elevation``, ``member`` (float,
+        NaN without a link), ``regular`` (bool: a link and a transition joint),
+        ``geometry`` (R, 3, 2, 3): per joint (direction, point) in position 1 (NaN where
+        not regular; joint 3 the sphere centre, no direction), ``jv`` (R, N, 2) the
+        values of joints 1 and 2 (0 where not regular), and ``name``, ``main``,
+        ``transition`` (the arrangement's columns).
+    """
+    N = T.shape[0]
+    S, A = len(combos), len(psis)
+    n_b = combos.shape[1] + 1
+    subsets = np.concatenate([np.zeros((S, 1), int), combos], 1)
+    rests = np.array([[i for i in range(N) if i not in sb] for sb in subsets.tolist()], int)
+    m = len(ml.block)
+    cnt = np.bincount(ml.block, minlength=S * A)
+    first = np.r_[0, np.cumsum(cnt)[:-1]]
+    empty = np.flatnonzero(cnt == 0)
+    ublock = np.concatenate([ml.block, empty])
+    ulink = np.concatenate([np.arange(m), np.full(len(empty), -1)])
+    o = np.argsort(ublock, kind="stable")
+    rb, rl = np.repeat(ublock[o], n_b), np.repeat(ulink[o], n_b)
+    rs = np.tile(np.arange(n_b), len(o))
+    sub, az = rb // A, rb % A
+    R = len(rb)
+    # the transition joint of every (link, s)
+    C = ml.centre
+    Cs = np.einsum("nij,mj->mni", T[:, :3, :3], C) + T[:, :3, 3]
+    lsub = ml.block // A
+    U, P, XV, reasons = _transition_axes(x, Cs, subsets[lsub], rests[lsub], reach)
+    lines = _joint_lines(name, main, U, P, ml.fixed_dir, ml.fixed_point, ml.values, ph)
+    has = rl >= 0
+    li, si = rl[has], rs[has]
+    reason = np.empty(R, dtype=object)
+    reason[~has] = [ml.error[b, a] or f"no real {main} link on the circle of this azimuth"
+                    for b, a in zip(sub[~has].tolist(), az[~has].tolist())]
+    reason[has] = reasons[li, si]
+    regular = has.copy()
+    regular[has] = reasons[li, si] == ""
+    r = np.flatnonzero(regular)
+    lr, sr = rl[r], rs[r]
+    geometry = np.full((R, 3, 2, 3), np.nan)
+    geometry[r, :2] = lines[lr, sr]
+    geometry[r, 2, 1] = C[lr]
+    X, F = (0, 1) if name == "a" else (1, 0)
+    jv = np.zeros((R, N, 2))
+    Pm, rest = subsets[sub[r]], rests[sub[r]]
+    jv[r[:, None], Pm, F] = ml.values[lr]
+    jv[r[:, None], rest, X] = XV[lr, sr]
+    jv[r[:, None], rest, F] = ml.values[lr, sr][:, None]
+    member = np.full(R, np.nan)
+    member[r] = lr - first[ml.block[lr]]
+    elevation = np.full(R, np.nan)
+    elevation[r] = ml.elevation[lr]
+    # text columns: one string per (sub-task, s)
+    pos = [str(tuple(p + 1 for p in sb)) for sb in subsets.tolist()]
+    orders = np.array([[_order(family, name, main, x, sb, s, rt, None) for s in sb]
+                       for sb, rt in zip(subsets.tolist(), rests.tolist())], dtype=object)
+    return {"name": name, "main": main, "transition": x + "S", "order": orders[sub, rs],
+            "main_positions": np.array(pos, dtype=object)[sub],
+            "transition_position": subsets[sub, rs] + 1, "azimuth": np.asarray(psis, float)[az],
+            "reason": reason, "regular": regular, "member": member, "elevation": elevation,
+            "geometry": geometry, "jv": jv}
+
+
+def _columns(family, T, reach, ph, parts) -> dict:
+    """The table's columns from the rows of the arrangements ``parts``
+    (:func:`_arrangement_rows`), the regular variants verified in one call
+    (:func:`synthesis.verify.verify_points`).
+
+    The columns are those (and in the order) of the rows as dicts: a regular row's
+    ``family, variant, order``, joints 1–3 (``j{k}_type, _ux, _uy, _uz, _x, _y, _z,
+    _pitch``), ``residual, reason, arrangement, transition, main_link, main_positions,
+    transition_position, member, azimuth, elevation``, the values ``q{k}_pos{p}`` (k =
+    1–3) and ``d{k}_pos{p}`` (k = 1, 2); a failed row's ``family, variant, order,
+    arrangement, transition, main_link, main_positions, transition_position, azimuth,
+    residual, reason`` and the joints; the kind of the first row first, the other's
+    extra columns after it.  ``member`` is an integer column when every row is regular.
+    """
+    N = T.shape[0]
+    cat = lambda key: np.concatenate([p[key] for p in parts])
+    rep = lambda key: np.concatenate([np.full(len(p["reason"]), p[key], dtype=object)
+                                      for p in parts])
+    regular = cat("regular")
+    R = len(regular)
+    geometry, jv = cat("geometry"), cat("jv")
+    r = np.flatnonzero(regular)
+    types = family[:2]
+    pitches = [ph if t == "H" else 0.0 for t in types]
+    residual = np.full(R, np.nan)
+    if len(r):
+        chains = [(types, [Line._exact(g[0, 0], g[0, 1]), Line._exact(g[1, 0], g[1, 1])], v,
+                   g[2, 1], pitches) for g, v in zip(geometry[r], jv[r])]
+        residual[r] = verify_points(chains, T, reach)
+    joints = {}
+    for k, t in enumerate(family):
+        joints[f"j{k + 1}_type"] = np.full(R, t, dtype=object)
+        for i, c in enumerate(("ux", "uy", "uz")):
+            joints[f"j{k + 1}_{c}"] = geometry[:, k, 0, i]
+        for i, c in enumerate("xyz"):
+            joints[f"j{k + 1}_{c}"] = geometry[:, k, 1, i]
+        joints[f"j{k + 1}_pitch"] = np.full(R, {"R": 0.0, "P": np.inf, "H": ph}.get(t, np.nan))
+    head = {"family": np.full(R, family, dtype=object), "variant": np.zeros(R, int),
+            "order": cat("order")}
+    tail = {"arrangement": rep("name"), "transition": rep("transition"),
+            "main_link": rep("main"), "main_positions": cat("main_positions"),
+            "transition_position": cat("transition_position")}
+    check = {"residual": residual, "reason": cat("reason")}
+    member = cat("member")
+    extra = {"member": member if not regular.all() else member.astype(int),
+             "azimuth": cat("azimuth"), "elevation": cat("elevation")}
+    vals = np.where(regular[:, None, None], jv, np.nan)
+    dscale = np.array([1.0 if t == "P" else ph if t == "H" else 0.0 for t in types])
+    q = {f"q{k + 1}_pos{p + 1}": vals[:, p, k] if k < 2 else np.full(R, np.nan)
+         for p in range(N) for k in range(3)}
+    d = {f"d{k + 1}_pos{p + 1}": vals[:, p, k] * dscale[k] for p in range(N) for k in range(2)}
+    cols_regular = {**head, **joints, **check, **tail, **extra, **q, **d}
+    if R and regular[0]:
+        return cols_regular
+    cols = {**head, **tail, "azimuth": extra["azimuth"], **check, **joints}
+    if regular.any():
+        cols.update({k: v for k, v in cols_regular.items() if k not in cols})
+    return cols
 
 
 ARRANGEMENTS = sphere_arrangements

@@ -23,7 +23,7 @@ A spherical joint cannot be driven, so the variants are verified by splitting th
 at the sphere: the engine moves O with the joints before it (from the ground) and with
 the joints after it taken backwards from the body (their values negated, the body at
 each given pose); the two positions of O must coincide (then a sphere rotation exists).
-All variants hang from one mechanism, one batched call.
+Every side of every variant goes through the engine's bulk open-chain evaluation.
 """
 from __future__ import annotations
 
@@ -31,13 +31,12 @@ import itertools
 
 import numpy as np
 
-from closure import Mechanism
+from closure import open_chain_poses
 
-from .decompose import angle_grid, nan_geometry, task_positions
+from .decompose import angle_grid, task_positions
 from .errors import SynthesisError
 from .screw import Line
-from .transition import transition_joint
-from .verify import _frames_of, in_chunks
+from .verify import _frames_of
 
 __all__ = ["middle_arrangements", "sphere_middle_dyads", "verify_split"]
 
@@ -72,7 +71,6 @@ def middle_arrangements(family: str, n_positions: int | None = None) -> list[tup
     return out
 
 
-@in_chunks
 def verify_split(chains, targets, length: float) -> np.ndarray:
     """Centre errors of chains with a sphere, split at the sphere.
 
@@ -93,65 +91,51 @@ def verify_split(chains, targets, length: float) -> np.ndarray:
     -------
     numpy.ndarray, shape (len(chains),)
         max_p |O moved by ``before`` − T_p · (O moved back by ``after``)| / ``length`` per
-        chain, both sides driven by the engine in one batched call (the joints after the
-        sphere with their values negated: a helical joint's inverse is the same joint
-        turned by −θ).
+        chain, each side an open chain hung from the ground and driven by the engine's
+        bulk evaluation (:func:`closure.open_chain_poses`, the chains of one joint sequence
+        in one call; the joints after the sphere reversed, their values negated: a helical
+        joint's inverse is the same joint turned by −θ).
 
     Raises
     ------
     SynthesisError
         A helical joint without a finite pitch.
     """
+    chains = list(chains)
     if not chains:
         return np.zeros(0)
+    for v, (before, after, _) in enumerate(chains):
+        for jt in before + after[::-1]:
+            if jt[0] == "H":
+                pitch = float(jt[3]) if len(jt) > 3 and jt[3] is not None else np.nan
+                if not np.isfinite(pitch):
+                    raise SynthesisError(f"chains[{v}]: pitch: a helical joint needs a "
+                                         f"finite pitch, got {pitch}")
     T = np.asarray(targets, float)
-    m = Mechanism()
-    lines = [jt[1] for before, after, _ in chains for jt in before + after[::-1]]
-    cols = []
-    frames = iter(_frames_of(lines)) if lines else iter(())
-    names = []
-    for v, (before, after, O) in enumerate(chains):
-        pair = []
-        for side, joints, sign in (("g", before, 1.0), ("b", after[::-1], -1.0)):
-            prev = "ground"
-            for j, jt in enumerate(joints):
-                kind, ln, vals = jt[:3]
-                pitch = None
-                if kind == "H":
-                    pitch = float(jt[3]) if len(jt) > 3 and jt[3] is not None else np.nan
-                    if not np.isfinite(pitch):
-                        raise SynthesisError(f"chains[{v}]: pitch: a helical joint needs a "
-                                             f"finite pitch, got {pitch}")
-                link = f"{side}{v}_{j}"
-                m.add_link(link)
-                jn = f"{side}{v}j{j}"
-                m.add_joint(jn, kind, prev, link, at=next(frames), validate=False, pitch=pitch)
-                m.add_input(jn, 0)
-                cols.append(sign * np.asarray(vals, float))
-                prev = link
-            pair.append(prev)
-        names.append(pair)
-    if cols:
-        pose = m.solve(np.stack(cols, 1), continuation=False)
-    err = []
-    for (before, after, O), (g, b) in zip(chains, names):
-        pg = np.broadcast_to(O, (len(T), 3)) if g == "ground" else \
-            np.atleast_2d(pose.point(g, O))
-        pb = np.broadcast_to(O, (len(T), 3)) if b == "ground" else \
-            np.atleast_2d(pose.point(b, O))
-        pb = np.einsum("pij,pj->pi", T[:, :3, :3], pb) + T[:, :3, 3]
-        err.append(np.linalg.norm(pg - pb, axis=1).max() / length)
-    return np.array(err)
+    O = np.array([c[2] for c in chains], float).reshape(-1, 3)
+    ends = []
+    for sign, joints in ((1.0, [c[0] for c in chains]), (-1.0, [c[1][::-1] for c in chains])):
+        pts = np.array(np.broadcast_to(O, (len(T),) + O.shape))               # (P, V, 3)
+        groups = {}
+        for v, js in enumerate(joints):
+            if js:
+                groups.setdefault("".join(jt[0] for jt in js), []).append(v)
+        for kinds, vs in groups.items():
+            k = len(kinds)
+            F = _frames_of([joints[v][i][1] for v in vs for i in range(k)]).reshape(-1, k, 4, 4)
+            q = sign * np.array([[joints[v][i][2] for i in range(k)] for v in vs], float)
+            h = np.array([[float(jt[3]) if jt[0] == "H" else 0.0 for jt in joints[v]]
+                          for v in vs])
+            L = open_chain_poses(kinds, F, np.moveaxis(q, -1, 0), h, validate=False)[:, :, -1]
+            pts[:, vs] = (L[..., :3, :3] @ O[vs][..., None])[..., 0] + L[..., :3, 3]
+        ends.append(pts)
+    pg, pb = ends
+    pb = (T[:, None, :3, :3] @ pb[..., None])[..., 0] + T[:, None, :3, 3]
+    return np.linalg.norm(pg - pb, axis=-1).max(0) / length
 
 
-def _rot_about(O, R):
-    S = np.eye(4)
-    S[:3, :3], S[:3, 3] = R, O - R @ O
-    return S
-
-
-def sphere_middle_dyads(family: str, screws, *, azimuth=None, pitch=None) -> list[dict]:
-    """Rows (dicts) of every variant of RSR, SRR, RSP, SRP, RSH or SRH; see
+def sphere_middle_dyads(family: str, screws, *, azimuth=None, pitch=None) -> dict:
+    """The table of every variant of RSR, SRR, RSP, SRP, RSH or SRH, as columns; see
     :func:`synthesis.enumerate_dyads`.
 
     Parameters
@@ -168,161 +152,271 @@ def sphere_middle_dyads(family: str, screws, *, azimuth=None, pitch=None) -> lis
         The helical joint's pitch (length/rad, nonzero), required for RSH and SRH (given,
         not a design variable); not allowed for the others.
 
+    Returns
+    -------
+    dict
+        Column name → array (one entry per variant, in table order), the columns in the
+        table's order (:func:`_columns`).
+
     Raises
     ------
     SynthesisError
         Bad input, naming the argument (``screws``, ``azimuth``, ``pitch``).
     """
-    from .decompose import _flipped
-    from .sphere_families import _helical_pitch, _renumbered
-    from .spherical import sh_links, sp_links, sr_links, task_frame
+    from .sphere_families import _helical_pitch
+    from .spherical import task_frame
     T, N, arr, reach = task_positions(family, screws, middle_arrangements)
     ph = _helical_pitch(family, pitch)
     psis = angle_grid(azimuth, "azimuth", DEFAULT_AZIMUTHS)
     frame = task_frame(screws)
-    rows, chains = [], []
-    y_kind = family[2]
+    axes = np.array([s.axis for s in screws], float)
+    points = np.array([s.point for s in screws], float)
+    parts = []
     for name, main, x, n_b, k in arr:
-        for others in itertools.combinations(range(1, N), n_b - 1):
-            Pm = (0,) + others
-            rest = [i for i in range(N) if i not in Pm]
-            for psi in psis:
-                sub = [screws[i - 1] for i in others]
+        combos = np.array(list(itertools.combinations(range(1, N), n_b - 1)), int)
+        links = _main_links(main, screws, T, axes, points, combos, psis, ph, frame)
+        parts.append(_arrangement_rows(family, name, main, combos, psis, links, T, reach, ph))
+    cols = _columns(family, T, reach, ph, parts)
+    cols["variant"] = np.arange(1, len(cols["family"]) + 1)
+    return cols
+
+
+def _main_links(main, screws, T, axes, points, combos, psis, ph, frame):
+    """The main link (SR, SP or SH) through positions 1 and each row of ``combos``
+    (S, n_b − 1) at each azimuth of ``psis``, as :class:`synthesis.spherical._SphereLinks`
+    (block = sub-task · len(psis) + azimuth index; ``moving_values`` the moving joint's
+    angles, or slides for SP): SR and SP of all sub-tasks and azimuths in one pass, SH per
+    sub-task and azimuth (:func:`synthesis.spherical.sh_links`); errors with the screws
+    named as in the whole task."""
+    from .sphere_families import _renumbered
+    from .spherical import _SphereLinks, _sphere_links_of, sh_links
+    S, A = len(combos), len(psis)
+    subsets = np.concatenate([np.zeros((S, 1), int), combos], 1)
+    if main in ("SR", "SP"):
+        sl = _sphere_links_of(T, axes, points, subsets, psis, frame, main)
+    else:
+        error = np.full((S, A), "", dtype=object)
+        links, blocks = [], []
+        for i, others in enumerate(combos.tolist()):
+            sub = [screws[j - 1] for j in others]
+            for a, psi in enumerate(psis):
                 try:
-                    if main == "SR":
-                        links = sr_links(sub, float(psi), frame=frame)
-                    elif main == "SP":
-                        links = sp_links(sub, float(psi), frame=frame)
-                    else:
-                        links = sh_links(sub, ph, float(psi), frame=frame)
-                    err = ""
+                    lks = sh_links(sub, ph, float(psi), frame=frame)
                 except SynthesisError as e:
-                    links, err = [], _renumbered(str(e), others)
-                if not links:
-                    for s in Pm:
-                        rows.append(_failed(family, name, main, Pm, s, rest, psi,
-                                            err or f"no real {main} link on this azimuth", ph))
+                    error[i, a] = str(e)
                     continue
-                for m_i, lk in enumerate(links):
-                    O = lk.fixed_axis.point
-                    M = lk.moving_axis
-                    mv = lk.moving_slides if y_kind == "P" else lk.moving_angles
-                    if _flipped(M.direction):
-                        M, mv = Line._exact(-M.direction, M.point), -mv
-                    Srot = lk.sphere_rotations
-                    for si, s in enumerate(Pm):
-                        Ts = T[s]
-                        y_line = Line._exact(Ts[:3, :3] @ M.direction,
-                                             Ts[:3, :3] @ M.point + Ts[:3, 3])
-                        try:
-                            trs = transition_joint("R", y_kind, y_line, ph,
-                                                   (T[rest[0]] @ np.linalg.inv(Ts))[None], reach)
-                            if not trs:
-                                raise SynthesisError("transition: no real root of the R "
-                                                     "transition carrying H (no angle of J3 "
-                                                     "leaves a pure rotation)")
-                        except (SynthesisError, ValueError) as e:
-                            rows.append(_failed(family, name, main, Pm, s, rest, psi, str(e),
-                                                ph))
-                            continue
-                        for root, tr in enumerate(trs):
-                            q3 = np.zeros(N)
-                            qx = np.zeros(N)
-                            for i, p in enumerate(Pm):
-                                q3[p] = mv[i]
-                            l = rest[0]
-                            qx[l] = tr.psi[0, 0]
-                            # J3's increment: the angle (R, H) or the slide (P)
-                            q3[l] = mv[si] + (tr.delta[0, 1] if y_kind == "P" else tr.delta[0, 0])
-                            if name == "a":
-                                X = tr.line
-                            else:
-                                G = _rot_about(O, Srot[si])
-                                Gi = np.linalg.inv(G)
-                                X = Line._exact(Gi[:3, :3] @ tr.line.direction,
-                                                Gi[:3, :3] @ tr.line.point + Gi[:3, 3])
-                            if name == "a":               # feet: from the origin, the centre
-                                X = X.canonical()
-                                M3 = Line._exact(M.direction, M.foot_from(O))
-                            else:
-                                X = Line._exact(X.direction, X.foot_from(O))
-                                M3 = M.canonical(X)
-                            if _flipped(X.direction):
-                                X, qx = Line._exact(-X.direction, X.point), -qx
-                            j3 = (y_kind, M3, q3, ph) if y_kind == "H" else (y_kind, M3, q3)
-                            if name == "a":
-                                before, after = [("R", X, qx)], [j3]
-                                lines = [X, None, M3]
-                            else:
-                                before, after = [], [("R", X, qx), j3]
-                                lines = [None, X, M3]
-                            row = _row(family, name, main, Pm, s, rest, psi, lines, O, m_i,
-                                       lk.parameters.get("elevation", np.nan), ph)
-                            if y_kind == "H":
-                                row["root"] = root          # which root of R carrying H
-                            for p in range(N):
-                                vals = [qx[p], np.nan, q3[p]] if name == "a" else \
-                                    [np.nan, qx[p], q3[p]]
-                                for kk in range(3):
-                                    row[f"q{kk + 1}_pos{p + 1}"] = vals[kk]
-                                    row[f"d{kk + 1}_pos{p + 1}"] = \
-                                        {"P": vals[kk], "R": 0.0, "H": ph * vals[kk]}.get(
-                                            family[kk], np.nan)
-                            rows.append(row)
-                            chains.append((len(rows) - 1, (before, after, O)))
-    res = verify_split([c for _, c in chains], T, reach)
-    for (i, _), r in zip(chains, res):
-        rows[i]["residual"] = float(r)
-    for v, row in enumerate(rows, start=1):
-        row["variant"] = v
-    return rows
+                links += lks
+                blocks += [i * A + a] * len(lks)
+        n = subsets.shape[1]
+        arr = lambda f, shape: np.array([f(lk) for lk in links], float).reshape(shape)
+        line = lambda ax, c: arr(lambda lk: getattr(getattr(lk, ax), c), (-1, 3))
+        sl = _SphereLinks("SH", np.array(blocks, int),
+                          arr(lambda lk: lk.parameters.get("elevation", np.nan), (-1,)),
+                          line("fixed_axis", "direction"), line("fixed_axis", "point"),
+                          line("moving_axis", "direction"), line("moving_axis", "point"),
+                          np.zeros((len(links), n)), arr(lambda lk: lk.moving_angles, (-1, n)),
+                          arr(lambda lk: lk.sphere_rotations, (-1, n, 3, 3)),
+                          arr(lambda lk: lk.residual, (-1,)), error)
+    for i, j in zip(*np.nonzero(sl.error != "")):
+        sl.error[i, j] = _renumbered(sl.error[i, j], combos[i].tolist())
+    return sl
+
+
+def _foot(u, p, x):
+    """Feet ``(m, 3)`` of the perpendiculars from the points x to the lines (u, p)."""
+    return p + np.sum((x - p) * u, -1, keepdims=True) * u
+
+
+def _arrangement_rows(family, name, main, combos, psis, sl, T, reach, ph) -> dict:
+    """The rows of one arrangement, as arrays: every (sub-task, azimuth) block in order,
+    in a block every main link (or one entry when it has none) × every transition
+    position s × every root of its R transition (or one entry when it has none); the R
+    transitions of all (link, s) in one call (:func:`synthesis.transition.transition_joints`).
+
+    Returns
+    -------
+    dict
+        Per row (R rows): ``order``, ``main_positions``, ``reason`` (object arrays),
+        ``transition_position`` (int), ``azimuth``, ``elevation``, ``member``, ``root``
+        (float, NaN where not regular), ``regular`` (bool), ``geometry`` (R, 3, 2, 3): per
+        joint (direction, point) in position 1 (NaN where not regular; the sphere its
+        centre, no direction), ``qx``, ``q3`` (R, N): the transition joint's and joint 3's
+        values (0 where not regular), and ``name``.
+    """
+    from .decompose import _flip_signs
+    from .transition import transition_joints
+    N = T.shape[0]
+    S, A = len(combos), len(psis)
+    n_b = combos.shape[1] + 1
+    y_kind = family[2]
+    subsets = np.concatenate([np.zeros((S, 1), int), combos], 1)
+    rests = np.array([[i for i in range(N) if i not in sb] for sb in subsets.tolist()], int)
+    m = len(sl.block)
+    lsub = sl.block // A
+    O = sl.fixed_point
+    sg = _flip_signs(sl.moving_dir) if m else np.ones(0)
+    Md, Mp = sl.moving_dir * sg[:, None], sl.moving_point
+    mv = sl.moving_values * sg[:, None]
+    # one R transition problem per (link, s)
+    Ts = T[subsets[lsub]].reshape(-1, 4, 4)                              # (m n_b, 4, 4)
+    D = T[np.repeat(rests[lsub, 0], n_b)] @ np.linalg.inv(Ts)
+    yd = np.einsum("pij,pj->pi", Ts[:, :3, :3], np.repeat(Md, n_b, 0))
+    yp = np.einsum("pij,pj->pi", Ts[:, :3, :3], np.repeat(Mp, n_b, 0)) + Ts[:, :3, 3]
+    tr = transition_joints("R", y_kind, yd, yp, ph, D[:, None], reach)
+    nroot = np.bincount(tr.owner, minlength=m * n_b)
+    # units: each root, one per (link, s) without a root, one per block without a link
+    cnt = np.bincount(sl.block, minlength=S * A)
+    empty = np.flatnonzero(cnt == 0)
+    bare = np.flatnonzero(nroot == 0)
+    key = np.concatenate([sl.block[tr.owner // n_b], sl.block[bare // n_b], empty])
+    sub_key = np.concatenate([tr.owner, bare, np.full(len(empty), -1)])
+    unit_root = np.concatenate([np.arange(len(tr.owner)), np.full(len(bare) + len(empty), -1)])
+    o = np.lexsort((np.arange(len(key)), sub_key, key))
+    ublock, uprob, uroot = key[o], sub_key[o], unit_root[o]
+    # a block without links has a row per s; the others one per (link, s) [× root]
+    rep = np.where(uprob < 0, n_b, 1)
+    rb, rp, rr = np.repeat(ublock, rep), np.repeat(uprob, rep), np.repeat(uroot, rep)
+    within = np.arange(len(rb)) - np.repeat(np.cumsum(rep) - rep, rep)
+    rsi = np.where(rp >= 0, rp % n_b, within)                 # the transition position s
+    sub, az = rb // A, rb % A
+    R = len(rb)
+    reason = np.full(R, "", dtype=object)
+    nolink = rp < 0
+    reason[nolink] = [sl.error[b, a] or f"no real {main} link on this azimuth"
+                      for b, a in zip(sub[nolink].tolist(), az[nolink].tolist())]
+    noroot = (rp >= 0) & (rr < 0)
+    reason[noroot] = [tr.error[p] or "transition: no real root of the R transition carrying H "
+                      "(no angle of J3 leaves a pure rotation)" for p in rp[noroot].tolist()]
+    regular = rr >= 0
+    r = np.flatnonzero(regular)
+    j = rr[r]                                           # the transition of each regular row
+    p = tr.owner[j]
+    lk, si = p // n_b, p % n_b
+    rest0 = rests[sub[r], 0]
+    ri = np.arange(len(r))
+    q3 = np.zeros((R, N))
+    q3[r[:, None], subsets[sub[r]]] = mv[lk]
+    q3[r, rest0] = mv[lk, si] + tr.delta[j, 0, 1 if y_kind == "P" else 0]
+    qx = np.zeros((len(r), N))
+    qx[ri, rest0] = tr.psi[j, 0, 0]
+    Xd, Xp = tr.direction[j], tr.point[j]
+    Ol, Mdl, Mpl = O[lk], Md[lk], Mp[lk]
+    if name == "a":                                   # feet: from the origin, the centre
+        Xp = Xp - np.sum(Xp * Xd, -1, keepdims=True) * Xd
+        M3p = _foot(Mdl, Mpl, Ol)
+    else:               # the transition axis turned back about O by the sphere at s
+        G = np.zeros((len(r), 4, 4))
+        G[:, :3, :3] = sl.rotations[lk, si]
+        G[:, :3, 3] = Ol - np.einsum("mij,mj->mi", sl.rotations[lk, si], Ol)
+        G[:, 3, 3] = 1.0
+        Gi = np.linalg.inv(G)
+        Xd = np.einsum("mij,mj->mi", Gi[:, :3, :3], Xd)
+        Xp = _foot(Xd, np.einsum("mij,mj->mi", Gi[:, :3, :3], Xp) + Gi[:, :3, 3], Ol)
+        M3p = _common_normal_feet(Xd, Xp, Mdl, Mpl)
+    fx = _flip_signs(Xd) if len(r) else np.ones(0)
+    Xd, qx = Xd * fx[:, None], qx * fx[:, None]
+    geometry = np.full((R, 3, 2, 3), np.nan)
+    kx, ks = (0, 1) if name == "a" else (1, 0)
+    geometry[r, kx] = np.stack([Xd, Xp], 1)
+    geometry[r, ks, 1] = Ol
+    geometry[r, 2] = np.stack([Mdl, M3p], 1)
+    QX = np.zeros((R, N))
+    QX[r] = qx
+    member = np.full(R, np.nan)
+    member[r] = lk - np.r_[0, np.cumsum(cnt)[:-1]][sl.block[lk]]
+    elevation = np.full(R, np.nan)
+    elevation[r] = sl.elevation[lk]
+    root = np.full(R, np.nan)
+    root[r] = j - np.searchsorted(tr.owner, p)
+    pos = [str(tuple(q + 1 for q in sb)) for sb in subsets.tolist()]
+    orders = np.array([[_order(name, main, sb, s, rt) for s in sb]
+                       for sb, rt in zip(subsets.tolist(), rests.tolist())], dtype=object)
+    return {"name": name, "main": main, "order": orders[sub, rsi],
+            "main_positions": np.array(pos, dtype=object)[sub],
+            "transition_position": subsets[sub, rsi] + 1, "azimuth": np.asarray(psis, float)[az],
+            "reason": reason, "regular": regular, "member": member, "elevation": elevation,
+            "root": root, "geometry": geometry, "qx": QX, "q3": q3}
+
+
+def _common_normal_feet(u, p, v, q):
+    """Feet ``(m, 3)`` on the lines (v, q) of their common normals with the lines (u, p)
+    (:func:`synthesis.screw.common_normal`; parallel lines: the foot of the perpendicular
+    from p)."""
+    b = np.sum(u * v, -1)
+    den = 1 - b * b
+    w = p - q
+    d, e = np.sum(u * w, -1), np.sum(v * w, -1)
+    par = den < 1e-12
+    t = np.where(par, 0.0, (e - b * d) / np.where(par, 1.0, den))
+    return np.where(par[:, None], _foot(v, q, p), q + t[:, None] * v)
+
+
+def _columns(family, T, reach, ph, parts) -> dict:
+    """The table's columns from the rows of the arrangements ``parts``
+    (:func:`_arrangement_rows`), the regular variants verified in one call
+    (:func:`verify_split`).
+
+    The columns are those (and in the order) of the rows as dicts: ``family, variant,
+    order, arrangement, transition``, joints 1–3 (``j{k}_type, _ux, _uy, _uz, _x, _y, _z,
+    _pitch``), ``residual, reason, main_link, main_positions, transition_position,
+    azimuth``, and when a row is regular ``member, elevation`` (``root`` for RSH, SRH:
+    which root of R carrying H) and per position ``q{k}_pos{p}, d{k}_pos{p}`` (k = 1–3);
+    ``member`` and ``root`` are integer columns when every row is regular.
+    """
+    N = T.shape[0]
+    y_kind = family[2]
+    cat = lambda key: np.concatenate([q[key] for q in parts])
+    rep = lambda key: np.concatenate([np.full(len(q["reason"]), q[key], dtype=object)
+                                      for q in parts])
+    regular, geometry, qx, q3 = cat("regular"), cat("geometry"), cat("qx"), cat("q3")
+    names = rep("name")
+    R = len(regular)
+    residual = np.full(R, np.nan)
+    r = np.flatnonzero(regular)
+    if len(r):
+        chains = []
+        for i in r.tolist():
+            g, kx = geometry[i], 0 if names[i] == "a" else 1      # the transition joint
+            X, M3 = Line._exact(g[kx, 0], g[kx, 1]), Line._exact(g[2, 0], g[2, 1])
+            j3 = (y_kind, M3, q3[i], ph) if y_kind == "H" else (y_kind, M3, q3[i])
+            O = g[1 - kx, 1]                                       # the sphere's centre
+            chains.append(([("R", X, qx[i])], [j3], O) if kx == 0 else
+                          ([], [("R", X, qx[i]), j3], O))
+        residual[r] = verify_split(chains, T, reach)
+    cols = {"family": np.full(R, family, dtype=object), "variant": np.zeros(R, int),
+            "order": cat("order"), "arrangement": names,
+            "transition": np.full(R, "R" + y_kind, dtype=object)}
+    for k, t in enumerate(family):
+        cols[f"j{k + 1}_type"] = np.full(R, t, dtype=object)
+        for i, c in enumerate(("ux", "uy", "uz")):
+            cols[f"j{k + 1}_{c}"] = geometry[:, k, 0, i]
+        for i, c in enumerate("xyz"):
+            cols[f"j{k + 1}_{c}"] = geometry[:, k, 1, i]
+        cols[f"j{k + 1}_pitch"] = np.full(R, {"R": 0.0, "P": np.inf, "H": ph}.get(t, np.nan))
+    cols.update(residual=residual, reason=cat("reason"), main_link=rep("main"),
+                main_positions=cat("main_positions"),
+                transition_position=cat("transition_position"), azimuth=cat("azimuth"))
+    if not len(r):
+        return cols
+    whole = regular.all()
+    cols["member"] = cat("member").astype(int) if whole else cat("member")
+    cols["elevation"] = cat("elevation")
+    if y_kind == "H":
+        cols["root"] = cat("root").astype(int) if whole else cat("root")
+    a = (names == "a")[:, None]
+    vals = [np.where(a, qx, np.nan), np.where(a, np.nan, qx), q3]
+    for p in range(N):
+        for k in range(3):
+            v = np.where(regular, vals[k][:, p], np.nan)
+            cols[f"q{k + 1}_pos{p + 1}"] = v
+            cols[f"d{k + 1}_pos{p + 1}"] = {"P": v, "R": np.where(regular, 0.0, np.nan),
+                                            "H": ph * v}.get(family[k], np.full(R, np.nan))
+    return cols
 
 
 def _order(name, main, Pm, s, rest):
     return (f"{main} through {tuple(p + 1 for p in Pm)}; R ({'J1' if name == 'a' else 'J2'}) "
             f"carries position {s + 1} to {tuple(i + 1 for i in rest)}")
-
-
-def _base(family, name, main, Pm, s, rest, psi):
-    row = {"family": family, "variant": 0, "order": _order(name, main, Pm, s, rest),
-           "arrangement": name, "transition": "R" + family[2]}
-    return row
-
-
-def _tail(row, family, main, Pm, s, psi):
-    row.update(main_link=main, main_positions=str(tuple(p + 1 for p in Pm)),
-               transition_position=s + 1, azimuth=float(psi))
-
-
-def _row(family, name, main, Pm, s, rest, psi, lines, O, member, elevation, pitch=0.0):
-    row = _base(family, name, main, Pm, s, rest, psi)
-    for k, (t, ln) in enumerate(zip(family, lines), start=1):
-        row[f"j{k}_type"] = t
-        if ln is None:                                         # the sphere: a centre only
-            row[f"j{k}_ux"] = row[f"j{k}_uy"] = row[f"j{k}_uz"] = np.nan
-            row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"] = O
-        else:
-            row[f"j{k}_ux"], row[f"j{k}_uy"], row[f"j{k}_uz"] = ln.direction
-            row[f"j{k}_x"], row[f"j{k}_y"], row[f"j{k}_z"] = ln.point
-        row[f"j{k}_pitch"] = {"R": 0.0, "P": np.inf, "H": pitch}.get(t, np.nan)
-    row["residual"] = np.nan
-    row["reason"] = ""
-    _tail(row, family, main, Pm, s, psi)
-    row["member"] = member
-    row["elevation"] = float(elevation)
-    return row
-
-
-def _failed(family, name, main, Pm, s, rest, psi, reason, pitch=0.0):
-    row = _base(family, name, main, Pm, s, rest, psi)
-    nan_geometry(row, family)
-    for k, t in enumerate(family, start=1):
-        if t == "H":
-            row[f"j{k}_pitch"] = pitch
-    row["residual"] = np.nan
-    row["reason"] = reason
-    _tail(row, family, main, Pm, s, psi)
-    return row
 
 
 ARRANGEMENTS = middle_arrangements

@@ -31,11 +31,14 @@ positions C_j = R_j C + t_j lie on a circle about G.  For a direction g the plan
 with Cramer's rule ``D C = N`` (D = det A, degree 3 in g) and ``Q_j = D (C_j − C_1)``,
 the circle through the four coplanar points exists when
 ``H(g) = det [[2 Q_j, |Q_j|²] (j = 2, 3, 4); [g, 0]] = 0``, a form of degree 13 in g that
-has D as a factor.  On the circle u(β) it is a trigonometric polynomial of degree ≤ 13:
-it is sampled at 32 angles, its Fourier coefficients give a polynomial in e^{iβ} whose
-unit-modulus roots (companion matrix, :func:`numpy.roots`) are every real β; each is
-polished by Newton's method, the roots of D (C at infinity) are dropped, and C, the axis
-point (circle centre) and the angles follow by linear algebra.
+has D as a factor.  On the circle u(β) it is a trigonometric polynomial of degree ≤ 13
+with odd harmonics only (H is odd in g): it is sampled at 32 angles, its Fourier
+coefficients give a polynomial of degree 13 in e^{2iβ} whose roots near the unit circle
+(companion matrices, the eigenvalues of every circle in one call) are every real β;
+each is polished by Newton's method, the roots of D (C at infinity) are dropped, and C,
+the axis point (circle centre) and the angles follow by linear algebra.  Every circle of
+every sub-task of a task (the positions of a dyad family's main link) and azimuth is
+solved in one vectorised pass (:func:`_sphere_links_of`).
 
 PS (slide direction d in the ground, sphere centre C): ``(R_j − I) C − s_j d = −t_j``
 (j = 2, 3) are six linear equations in C and the slides s₂, s₃; they are consistent when
@@ -51,6 +54,8 @@ SR, SP and SH are RS, PS and HS of the inverse task (positions ``S₁ⱼ⁻¹``,
 that of the moving axis (slide) direction in position 1, in the forward task's frame.
 """
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -150,19 +155,37 @@ def _circle(F, psi):
 
 # ------------------------------------------------------------------ RS condition
 def _rs_parts(g, R, t):
-    """For directions ``g (N, 3)``: A's rows, D = det A, N = adj(A) b and Q_j (N, 3, 3)."""
-    I = np.eye(3)
-    r = np.einsum("mji,nj->nmi", R - I, g)                   # rows gᵀ (R_j − I)
-    b = -np.einsum("mi,ni->nm", t, g)
-    c0, c1, c2 = _cross(r[:, 1], r[:, 2]), _cross(r[:, 2], r[:, 0]), _cross(r[:, 0], r[:, 1])
+    """A's rows, D = det A, N = adj(A) b and the Q_j of the RS circle condition.
+
+    Parameters
+    ----------
+    g : ndarray, shape (n, 3)
+        Fixed axis directions.
+    R, t : ndarray, shape (3, 3, 3) and (3, 3), or (n, 3, 3, 3) and (n, 3, 3)
+        Rotations and translations of positions 2–4 (normalised): one task, or one per
+        direction.
+
+    Returns
+    -------
+    r : ndarray (n, 3, 3)
+        A's rows ``gᵀ (R_j − I)``.
+    D : ndarray (n,)
+    N : ndarray (n, 3)
+    Q : ndarray (n, 3, 3)
+    """
+    RI = R - np.eye(3)
+    r = np.einsum("...mji,...j->...mi", RI, g)                 # rows gᵀ (R_j − I)
+    b = -np.einsum("...mi,...i->...m", t, g)
+    c0, c1, c2 = (_cross(r[:, 1], r[:, 2]), _cross(r[:, 2], r[:, 0]),
+                  _cross(r[:, 0], r[:, 1]))
     D = np.sum(r[:, 0] * c0, -1)
     N = c0 * b[:, :1] + c1 * b[:, 1:2] + c2 * b[:, 2:3]
-    Q = np.einsum("mij,nj->nmi", R - I, N) + t[None] * D[:, None, None]
+    Q = np.einsum("...mij,...j->...mi", RI, N) + t * D[:, None, None]
     return r, D, N, Q
 
 
 def _rs_H(g, R, t):
-    """The circle condition H(g) (N,) (degree 13 in g)."""
+    """The circle condition H(g) (n,) (degree 13 in g; R, t as :func:`_rs_parts`)."""
     _, _, _, Q = _rs_parts(g, R, t)
     M = np.zeros(g.shape[:1] + (4, 4))
     M[:, :3, :3] = 2 * Q
@@ -171,125 +194,227 @@ def _rs_H(g, R, t):
     return np.linalg.det(M)
 
 
-def _trig_roots(f, a, b, degree, K, polish: int = 4):
-    """Every real root β ∈ [0, π) of the trigonometric polynomial ``f(u(β))`` (degree ≤
-    ``degree``, odd or even, u(β) = cos β a + sin β b) from ``K > 2·degree`` samples:
-    ``(β, scale)`` (:func:`_trig_roots_many` of one circle)."""
-    return _trig_roots_many(f, [(a, b)], degree, K, polish)[0]
+def _fourier(f, A, B, degree, K):
+    """Samples and Fourier coefficients of ``f(u(β))`` on great circles
+    ``u(β) = cos β A[i] + sin β B[i]``.
 
-
-def _trig_roots_many(f, circles, degree, K, polish: int = 4) -> list[tuple]:
-    """:func:`_trig_roots` on several great circles ``(a, b)`` at once (``f`` evaluated on
-    all of them in each call).  Roots come from the companion matrix of ``z^degree f``;
-    those within 1e-4 of the unit circle are polished by Newton's method on f itself.
+    Parameters
+    ----------
+    f : callable
+        ``f(u (m, 3), circle (m,))`` → values (m,) at directions on the given circles.
+    A, B : ndarray, shape (n, 3)
+        The circles.
+    degree, K : int
+        f's degree in u and the samples per circle (K > 2 · degree: exact coefficients).
 
     Returns
     -------
-    list of (ndarray, float)
-        Per circle, its roots β (sorted, distinct) and the largest Fourier coefficient of
-        f on it (0 when f vanishes there; then no roots).
+    h : ndarray (n, K)
+        f at β = 2πk/K.
+    c : ndarray (n, K), complex
+        Its Fourier coefficients (frequency k at index k mod K).
+    scale : ndarray (n,)
+        The largest magnitude of the coefficients of frequency −degree … degree (0 when
+        not finite).
     """
     beta = 2 * np.pi * np.arange(K) / K
-    A = np.array([a for a, _ in circles])[:, None]
-    B = np.array([b for _, b in circles])[:, None]
-    u = np.cos(beta)[None, :, None] * A + np.sin(beta)[None, :, None] * B
-    h = f(u.reshape(-1, 3)).reshape(len(circles), K)
-    cs = np.fft.fft(h, axis=-1) / K
-    starts = [_unit_roots(c, degree, K) for c in cs]
-    bts = _newton(f, [bt for bt, _ in starts], A[:, 0], B[:, 0], polish)
-    return [(_distinct(bt) if len(bt0) else bt0, scale)
-            for bt, (bt0, scale) in zip(bts, starts)]
+    u = np.cos(beta)[None, :, None] * A[:, None] + np.sin(beta)[None, :, None] * B[:, None]
+    h = f(u.reshape(-1, 3), np.repeat(np.arange(len(A)), K)).reshape(len(A), K)
+    c = np.fft.fft(h, axis=-1) / K
+    scale = np.abs(c[:, np.arange(-degree, degree + 1) % K]).max(-1, initial=0.0)
+    return h, c, np.where(np.isfinite(scale), scale, 0.0)
 
 
-def _unit_roots(c, degree, K):
-    """The angles in [0, π) of the roots near the unit circle of the polynomial whose
-    coefficients are the Fourier coefficients ``c`` (K,) of frequency +degree … −degree,
-    and the largest coefficient's magnitude (``(empty, 0.0)`` when none is finite and
-    nonzero)."""
-    coef = np.array([c[k] if k >= 0 else c[K + k] for k in range(degree, -degree - 1, -1)])
-    scale = np.abs(coef).max()
-    if not np.isfinite(scale) or scale == 0:
-        return np.zeros(0), 0.0
-    coef = coef / scale
-    nz = np.flatnonzero(np.abs(coef) > 1e-13)
-    z = np.roots(coef[nz[0]:nz[-1] + 1]) if len(nz) > 1 else np.zeros(0)
-    z = z[np.abs(np.abs(z) - 1) < 1e-4]
-    return np.angle(z) % np.pi, scale
+def _trig_roots_batch(f, A, B, degree, K, polish: int = 4):
+    """Every real root β ∈ [0, π) of ``f(u(β))`` (f a form of ``degree`` in u: f(−u) =
+    (−1)^degree f(u); u(β) = cos β A[i] + sin β B[i]) on n great circles at once, from
+    ``K > 2 · degree`` samples each.
+
+    f(u(β)) has the harmonics e^{ijβ}, j = −degree, −degree + 2, …, degree (the parity of
+    the form), so ``e^{i·degree·β} f = P(w)`` is a polynomial of degree ``degree`` in
+    ``w = e^{2iβ}`` whose coefficients are the Fourier coefficients of f (those below
+    1e-13 of the largest at either end trimmed).  Its roots are the eigenvalues of the
+    companion matrices (the circles of one degree in one call); those with
+    ``||w|^½ − 1| < 1e-4`` (e^{iβ} within 1e-4 of the unit circle) give β = arg(w)/2 and
+    are polished by ``polish`` Newton steps on f itself (central-difference derivative,
+    steps clipped to 0.05 rad), then reduced to [0, π), sorted, and those within 1e-9
+    (also across 0 ≡ π) merged.
+
+    Parameters
+    ----------
+    f : callable
+        ``f(u (m, 3), circle (m,))`` → values (m,) at directions on the given circles.
+    A, B : ndarray, shape (n, 3)
+        The circles.
+    degree, K : int
+    polish : int
+
+    Returns
+    -------
+    beta : ndarray (r,)
+        The roots (rad), grouped by circle, ascending within a circle.
+    circle : ndarray of int (r,)
+        The circle of each root (ascending).
+    scale : ndarray (n,)
+        The largest Fourier coefficient of f on each circle (0 when f vanishes there or is
+        not finite; then no roots).
+    """
+    _, c, scale = _fourier(f, A, B, degree, K)
+    live = np.flatnonzero(scale > 0)
+    freq = np.arange(degree, -degree - 1, -2)                     # descending powers of w
+    coef = c[live][:, freq % K] / scale[live, None]
+    big = np.abs(coef) > 1e-13
+    lead, last = np.argmax(big, 1), degree - np.argmax(big[:, ::-1], 1)
+    cs, bs = [], []
+    for lo, hi in set(zip(lead.tolist(), last.tolist())):        # usually one group
+        grp = np.flatnonzero((lead == lo) & (last == hi))
+        d = hi - lo
+        if d < 1:
+            continue
+        comp = np.zeros((len(grp), d, d), complex)
+        comp[:, 0] = -coef[grp, lo + 1:hi + 1] / coef[grp, lo:lo + 1]
+        comp[:, np.arange(1, d), np.arange(d - 1)] = 1.0
+        w = np.linalg.eigvals(comp)
+        with np.errstate(all="ignore"):
+            near = np.abs(np.sqrt(np.abs(w)) - 1) < 1e-4
+        ci, ki = np.nonzero(near)
+        cs.append(live[grp[ci]])
+        bs.append(np.angle(w[ci, ki]) / 2)
+    circle = np.concatenate(cs) if cs else np.zeros(0, int)
+    bt = np.concatenate(bs) if bs else np.zeros(0)
+    if polish and len(bt):
+        bt = _newton(f, bt, circle, A, B, polish)
+    return (*_distinct(bt, circle), scale)
 
 
-def _newton(f, bts, A, B, polish):
-    """Polish the roots ``bts`` (one array per circle (A[i], B[i])) of ``f(u(β))`` by
-    ``polish`` Newton steps (central-difference derivative, steps clipped to 0.05 rad),
-    every circle's roots in one evaluation of f per step."""
-    sizes = [len(bt) for bt in bts]
-    bt = np.concatenate(bts)
-    if len(bt) == 0:
-        return bts
-    a, b = (np.tile(np.repeat(X, sizes, axis=0), (3, 1)) for X in (A, B))
+def _newton(f, bt, circle, A, B, polish):
+    """The roots ``bt (r,)`` of ``f(u(β))`` on their circles (``circle (r,)`` into A, B
+    (n, 3)) polished by ``polish`` Newton steps (central-difference derivative, steps
+    clipped to 0.05 rad), all roots in one evaluation of f per step."""
+    a, b, cc = np.tile(A[circle], (3, 1)), np.tile(B[circle], (3, 1)), np.tile(circle, 3)
     hs = 1e-6
     n = len(bt)
     for _ in range(polish):                     # f and f' in one call
         x = np.concatenate([bt, bt + hs, bt - hs])
-        f0, fp, fm = np.split(f(np.cos(x)[:, None] * a + np.sin(x)[:, None] * b), [n, 2 * n])
+        f0, fp, fm = np.split(f(np.cos(x)[:, None] * a + np.sin(x)[:, None] * b, cc),
+                              [n, 2 * n])
         d = (fp - fm) / (2 * hs)
         with np.errstate(all="ignore"):
             step = np.where(np.abs(d) > 0, f0 / d, 0.0)
         bt = bt - np.clip(np.nan_to_num(step), -0.05, 0.05)
-    return np.split(bt, np.cumsum(sizes)[:-1])
-
-
-def _distinct(bt):
-    """Polished roots reduced to [0, π), sorted, duplicates (within 1e-9, also across
-    0 ≡ π) dropped."""
-    bt = np.sort(bt % np.pi)
-    keep = np.r_[True, np.diff(bt) > 1e-9]
-    bt = bt[keep]
-    if len(bt) > 1 and bt[-1] - bt[0] > np.pi - 1e-9:
-        bt = bt[:-1]
     return bt
 
 
+def _distinct(bt, circle):
+    """Roots reduced to [0, π), sorted per circle, duplicates (within 1e-9, also across
+    0 ≡ π) dropped: ``(bt, circle)`` grouped by circle."""
+    if not len(bt):
+        return bt, circle
+    bt = bt % np.pi
+    order = np.lexsort((bt, circle))
+    bt, circle = bt[order], circle[order]
+    first = np.r_[True, circle[1:] != circle[:-1]]
+    keep = first | np.r_[True, np.diff(bt) > 1e-9]
+    bt, circle = bt[keep], circle[keep]
+    first = np.r_[True, circle[1:] != circle[:-1]]
+    start = np.flatnonzero(first)
+    last = np.r_[start[1:], len(bt)] - 1
+    wrap = (last > start) & (bt[last] - bt[start] > np.pi - 1e-9)
+    drop = np.zeros(len(bt), bool)
+    drop[last[wrap]] = True
+    return bt[~drop], circle[~drop]
+
+
+def _turning_errors(T, name: str = "screws") -> np.ndarray:
+    """Per task of ``T (B, n, 4, 4)`` (position 1 first): ``""``, or the error naming its
+    first relative screw S₁ⱼ that (nearly) does not rotate (the RS sphere-centre planes are
+    then not determined)."""
+    ang = np.arccos(np.clip((np.trace(T[:, 1:, :3, :3], axis1=-2, axis2=-1) - 1) / 2, -1, 1))
+    err = np.full(len(T), "", dtype=object)
+    for b, j in zip(*np.nonzero(ang < 1e-6)):
+        if not err[b]:
+            err[b] = (f"{name}: S_1{j + 2} is (nearly) a pure translation (rotation "
+                      f"{ang[b, j]:.1e} rad): the sphere-centre planes ⊥ the axis are then "
+                      "not determined by the rotations; this case is not supported")
+    return err
+
+
 def _check_turning(task, name):
-    for j, Tj in enumerate(task.T[1:], start=2):
-        ang = np.arccos(np.clip((np.trace(Tj[:3, :3]) - 1) / 2, -1, 1))
-        if ang < 1e-6:
-            raise SynthesisError(f"{name}: S_1{j} is (nearly) a pure translation (rotation "
-                                 f"{ang:.1e} rad): the sphere-centre planes ⊥ the axis are then "
-                                 "not determined by the rotations; this case is not supported")
+    err = _turning_errors(task.T[None], name)[0]
+    if err:
+        raise SynthesisError(err)
 
 
-def _rs_roots(R, t, circles) -> list[tuple]:
-    """``(β, scale)`` of the RS circle condition on each great circle ``(a, b)``."""
-    return _trig_roots_many(lambda u: _rs_H(u, R, t), circles, _DEG_RS, _K_RS)
+def _rs_batch(R, t, A, B, sub, tol_rank=1e-10):
+    """RS links (normalised coordinates) on n great circles of S sub-tasks, in one pass.
+
+    Parameters
+    ----------
+    R, t : ndarray, shape (S, 3, 3, 3) and (S, 3, 3)
+        Each sub-task's rotations and translations of positions 2–4 (normalised).
+    A, B : ndarray, shape (n, 3)
+        The circles ``u(β) = cos β A + sin β B``.
+    sub : ndarray of int, shape (n,)
+        The sub-task of each circle.
+    tol_rank : float
+        Relative smallest singular value of A(g) below which g is a root of D (C at
+        infinity: dropped).
+
+    Returns
+    -------
+    circle : ndarray of int (m,)
+        The circle of each link (ascending; a circle's links by ascending β).
+    beta : ndarray (m,)
+        Elevation β (rad).
+    g, C, O : ndarray (m, 3)
+        Fixed axis direction, sphere centre (position 1), axis point (circle centre).
+    th : ndarray (m, 3)
+        Revolute angles at positions 2–4 (rad).
+    S : ndarray (m, 3, 3, 3)
+        The body's rotations relative to the link at positions 2–4.
+    scale : ndarray (n,)
+        The condition's largest Fourier coefficient per circle (0: it vanishes on the
+        whole circle, no links).
+    """
+    bt, circle, scale = _trig_roots_batch(lambda u, i: _rs_H(u, R[sub[i]], t[sub[i]]), A, B,
+                                          _DEG_RS, _K_RS)
+    if not len(bt):
+        e = np.zeros((0, 3))
+        return circle, bt, e, e, e, e, np.zeros((0, 3, 3, 3)), scale
+    s = sub[circle]
+    Rs, ts = R[s], t[s]
+    g = np.cos(bt)[:, None] * A[circle] + np.sin(bt)[:, None] * B[circle]
+    r, D, N, _ = _rs_parts(g, Rs, ts)
+    sv = np.linalg.svd(r, compute_uv=False)
+    ok = ~(sv[:, -1] < tol_rank * np.maximum(sv[:, 0], 1e-300))     # roots of D: C at ∞
+    with np.errstate(all="ignore"):
+        C = np.where(ok[:, None], N, 0.0) / np.where(ok, D, 1.0)[:, None]
+    Cs = np.concatenate([C[:, None], np.einsum("mkij,mj->mki", Rs, C) + ts], 1)   # (m, 4, 3)
+    A4 = np.concatenate([2 * (Cs[:, 1:] - Cs[:, :1]), g[:, None]], 1)
+    b4 = np.concatenate([np.sum(Cs[:, 1:] ** 2, -1) - np.sum(Cs[:, 0] ** 2, -1)[:, None],
+                         np.sum(g * Cs[:, 0], -1)[:, None]], 1)
+    A4 = np.where(ok[:, None, None], A4, np.eye(4, 3))
+    O = np.einsum("mij,mj->mi", np.linalg.pinv(A4), np.where(ok[:, None], b4, 0.0))
+    u0 = Cs[:, 0] - O
+    with np.errstate(invalid="ignore"):
+        ok &= ~(np.linalg.norm(u0, axis=-1) < 1e-12 * np.maximum(1.0, np.abs(Cs).max((1, 2))))
+    th = _signed_angle(u0[:, None], Cs[:, 1:] - O[:, None], g[:, None])
+    S = np.swapaxes(_rot(g[:, None], th), -1, -2) @ Rs
+    return circle[ok], bt[ok], g[ok], C[ok], O[ok], th[ok], S[ok], scale
 
 
-def _rs_core(R, t, a, b, tol_rank=1e-10, roots=None):
-    """RS links (normalised coordinates) on the great circle (a, b): list of
-    (β, g, C, O, θ (m,), S (m, 3, 3), D-relative); ``roots`` the circle's
-    :func:`_rs_roots` when already found."""
-    bt, scale = _rs_roots(R, t, [(a, b)])[0] if roots is None else roots
-    if scale == 0:
-        raise SynthesisError("screws: degenerate: the circle condition vanishes on the whole "
-                             "great circle of this azimuth (every direction admissible?)")
-    out = []
-    gs = np.cos(bt)[:, None] * a + np.sin(bt)[:, None] * b
-    rs, Ds, Ns, _ = _rs_parts(gs, R, t)
-    svs = np.linalg.svd(rs, compute_uv=False) if len(bt) else np.zeros((0, 3))
-    for beta, g, D, N, s in zip(bt, gs, Ds, Ns, svs):
-        if s[-1] < tol_rank * max(s[0], 1e-300):
-            continue                                            # a root of D: C at infinity
-        C = N / D
-        Cs = np.vstack([C, np.einsum("mij,j->mi", R, C) + t])
-        A4 = np.vstack([2 * (Cs[1:] - Cs[0]), g])
-        b4 = np.r_[np.sum(Cs[1:] ** 2, -1) - Cs[0] @ Cs[0], g @ Cs[0]]
-        O = np.linalg.lstsq(A4, b4, rcond=None)[0]
-        u0 = Cs[0] - O
-        if np.linalg.norm(u0) < 1e-12 * max(1.0, np.abs(Cs).max()):
-            continue                                            # centre on the axis
-        th = _signed_angle(np.broadcast_to(u0, (len(R), 3)), Cs[1:] - O, g)
-        S = np.swapaxes(_rot(g, th), -1, -2) @ R
-        out.append((beta, g, C, O, th, S))
-    return out
+def _rs_core(R, t, a, b):
+    """RS links (normalised) of one task on the great circle (a, b): list of (β, g, C, O,
+    θ (3,), S (3, 3, 3)) (:func:`_rs_batch`); a condition vanishing on the whole circle
+    raises."""
+    circle, *sol, scale = _rs_batch(R[None], t[None], a[None], b[None], np.zeros(1, int))
+    if scale[0] == 0:
+        raise SynthesisError(_RS_DEGENERATE)
+    return list(zip(*sol))
+
+
+_RS_DEGENERATE = ("screws: degenerate: the circle condition vanishes on the whole great circle "
+                  "of this azimuth (every direction admissible?)")
 
 
 def rs_condition(screws, direction, *, frame=None) -> float:
@@ -302,8 +427,8 @@ def rs_condition(screws, direction, *, frame=None) -> float:
     F = _frame_arg(frame, _screws(screws, "screws"))
     a, b = _circle(F, azimuth_of(g, frame=F))
     R, t = task.R, task.t
-    _, scale = _trig_roots(lambda u: _rs_H(u, R, t), a, b, _DEG_RS, _K_RS, polish=0)
-    return float(_rs_H(g[None], R, t)[0] / scale) if scale else 0.0
+    _, _, scale = _fourier(lambda u, i: _rs_H(u, R, t), a[None], b[None], _DEG_RS, _K_RS)
+    return float(_rs_H(g[None], R, t)[0] / scale[0]) if scale[0] else 0.0
 
 
 def _residual(link, task):
@@ -322,56 +447,321 @@ def _residuals(links, task):
 
 def _inverse(R, t):
     Ri = np.swapaxes(R, -1, -2)
-    return Ri, -np.einsum("mij,mj->mi", Ri, t)
+    return Ri, -np.einsum("...ij,...j->...i", Ri, t)
 
 
-def _rs_setup(screws, azimuths, frame, tol, kind: str):
-    """The validated RS/SR task (in the order :func:`rs_links_at` checks its arguments):
-    ``(task, azimuths (list of float), tol, frame, R, t)``, R and t inverted for SR."""
-    task = _task(screws, "screws", (4,))
+# ------------------------------------------------------------------ batched sub-tasks
+@dataclass
+class _SubTasks:
+    """Sub-tasks of one task (the positions of ``subsets``), each normalised as
+    :func:`synthesis.binary._task` normalises a task of its own.
+
+    Attributes
+    ----------
+    T : ndarray (S, n, 4, 4)
+        Each sub-task's positions (user coordinates, position 1 first).
+    Tn : ndarray (S, n, 4, 4)
+        Normalised: ``x ↦ (x − c) / L``.
+    c : ndarray (S, 3)
+    L, reach : ndarray (S,)
+    error : ndarray of object (S,)
+        ``""``, or why the sub-task is degenerate (coincident positions).
+    """
+
+    T: np.ndarray
+    Tn: np.ndarray
+    c: np.ndarray
+    L: np.ndarray
+    reach: np.ndarray
+    error: np.ndarray
+
+
+def _task_scales(T, U, P):
+    """:func:`synthesis.validate.task_scale` of S tasks at once.
+
+    Parameters
+    ----------
+    T : ndarray, shape (S, n, 4, 4)
+        Each task's positions.
+    U, P : ndarray, shape (S, k, 3), k ≥ 1
+        Unit directions and points of each task's screw axes.
+
+    Returns
+    -------
+    centre : ndarray (S, 3)
+    extent, reach : ndarray (S,)
+    """
+    c = P.mean(1)
+    Q = np.eye(3) - U[..., :, None] * U[..., None, :]                   # projectors ⊥ axes
+    b = np.einsum("snij,snj->si", Q, P - c[:, None])
+    c = c + np.einsum("sij,sj->si", np.linalg.pinv(Q.sum(1), rcond=1e-8, hermitian=True), b)
+    t = T[..., :3, 3] + np.einsum("snij,sj->sni", T[..., :3, :3], c) - c[:, None]
+    d = np.einsum("snij,snj->sni", Q, P - c[:, None])
+    extent = np.maximum(np.abs(t).max((1, 2)), np.abs(d).max((1, 2)))
+    reach = np.maximum(extent, np.abs(c).max(1))
+    zero = extent == 0
+    extent = np.where(zero, np.where(reach > 0, reach, 1.0), extent)
+    return c, extent, np.where(zero, extent, reach)
+
+
+def _subtasks(T, axes, points, subsets, name: str = "screws") -> _SubTasks:
+    """The normalised sub-tasks of the task ``T (N, 4, 4)`` (screw ``axes``, ``points``
+    (N − 1, 3) of S₁₂ … S₁N) through the positions ``subsets (S, n)`` (each starting at
+    0), their coincident positions found in one batched comparison (the message of
+    :func:`synthesis.binary._task`, positions numbered within the sub-task)."""
+    subsets = np.asarray(subsets, int)
+    S, n = subsets.shape
+    Ts = T[subsets]
+    c, L, reach = _task_scales(Ts, axes[subsets[:, 1:] - 1], points[subsets[:, 1:] - 1])
+    J, K = (np.array(x, int) for x in zip(*[(j, k) for j in range(n) for k in range(j)]))
+    rot, pos = pose_errors(Ts[:, J], Ts[:, K], reach[:, None])
+    same = np.maximum(rot, pos) < 1e-12
+    error = np.full(S, "", dtype=object)
+    for b in np.flatnonzero(same.any(1)):
+        i = int(np.argmax(same[b]))
+        error[b] = (f"{name}: positions {K[i] + 1} and {J[i] + 1} coincide (their relative "
+                    "screw is the identity): degenerate task")
+    C = np.zeros((S, 4, 4))
+    C[:, :3, :3] = np.eye(3) / L[:, None, None]
+    C[:, :3, 3] = -c / L[:, None]
+    C[:, 3, 3] = 1.0
+    Tn = C[:, None] @ Ts @ np.linalg.inv(C)[:, None]
+    return _SubTasks(Ts, Tn, c, L, reach, error)
+
+
+def _task_arrays(screws, n: int):
+    """Validated screws of an n-position link task: ``(T (n, 4, 4), axes, points (n − 1,
+    3))``, the errors of :func:`synthesis.binary._task` for the count."""
     scr = _screws(screws, "screws")
-    psis = [number(psi, "azimuth", unit_="rad") for psi in azimuths]
-    tol = number(tol, "tol", positive=True)
-    F = _frame_arg(frame, scr)
-    _check_turning(task, "screws")
-    R, t = task.R, task.t
-    if kind == "SR":
+    if len(scr) + 1 != n:
+        raise SynthesisError(f"screws: expected {n - 1} screws S_12 … S_1n for {n} positions, "
+                             f"got {len(scr)}")
+    T = np.stack([np.eye(4)] + [s.matrix() for s in scr])
+    return (T, np.array([s.axis for s in scr], float).reshape(-1, 3),
+            np.array([s.point for s in scr], float).reshape(-1, 3))
+
+
+# ------------------------------------------------------------------ sphere links as arrays
+@dataclass
+class _SphereLinks:
+    """RS, SR, PS or SP links of several sub-tasks and azimuths (:func:`_sphere_links_of`), as
+    arrays; m links in all, n positions per sub-task.
+
+    Attributes
+    ----------
+    kind : str
+        ``"RS"``, ``"SR"``, ``"PS"`` or ``"SP"``.
+    block : ndarray of int (m,)
+        ``sub-task · len(azimuths) + azimuth index`` of each link (ascending; a block's
+        links by ascending elevation).
+    elevation : ndarray (m,)
+        β (rad) on the circle of the azimuth.
+    fixed_dir, fixed_point, moving_dir, moving_point : ndarray (m, 3)
+        The joints' axes in position 1 as :class:`BinaryLink` holds them (an S joint: its
+        centre, the other joint's direction).
+    fixed_values, moving_values : ndarray (m, n)
+        The fixed and moving joints' values at positions 1…n (angle rad for R, slide
+        length for P; 0 for S).
+    rotations : ndarray (m, n, 3, 3)
+        The sphere's rotations (``sphere_rotations``).
+    residual : ndarray (m,)
+        Largest pose error over the sub-task's positions (rad, or relative to its reach).
+    error : ndarray of object (S, len(azimuths))
+        ``""``, or the message of the :class:`SynthesisError` the one-azimuth function
+        raises for that sub-task and azimuth (then no links).
+    """
+
+    kind: str
+    block: np.ndarray
+    elevation: np.ndarray
+    fixed_dir: np.ndarray
+    fixed_point: np.ndarray
+    moving_dir: np.ndarray
+    moving_point: np.ndarray
+    fixed_values: np.ndarray
+    moving_values: np.ndarray
+    rotations: np.ndarray
+    residual: np.ndarray
+    error: np.ndarray
+
+    def take(self, keep) -> "_SphereLinks":
+        """The links selected by ``keep`` (mask or indices), errors unchanged."""
+        f = {k: getattr(self, k)[keep] for k in ("block", "elevation", "fixed_dir",
+                                                  "fixed_point", "moving_dir", "moving_point",
+                                                  "fixed_values", "moving_values", "rotations",
+                                                  "residual")}
+        return _SphereLinks(self.kind, error=self.error, **f)
+
+    def binary_links(self, azimuths) -> list[list[BinaryLink]]:
+        """The links of each block as :class:`BinaryLink` (blocks in order; ``azimuths``
+        (rad) the grid the blocks index, for the links' ``parameters``)."""
+        kind = self.kind
+        out = [[] for _ in range(self.error.size)]
+        z = np.zeros(self.fixed_values.shape[1])
+        pitch = {"R": 0.0, "P": np.inf, "S": np.nan}
+
+        def values(k, v):          # (angles, slides) of a joint of kind k with values v
+            return (v.copy(), z.copy()) if k == "R" else (z.copy(), v.copy()) if k == "P" \
+                else (z.copy(), z.copy())
+        for i, blk in enumerate(self.block.tolist()):
+            link = BinaryLink(kind, Line._exact(self.fixed_dir[i].copy(),
+                                                self.fixed_point[i].copy()),
+                              Line._exact(self.moving_dir[i].copy(), self.moving_point[i].copy()),
+                              pitch[kind[0]], pitch[kind[1]],
+                              *values(kind[0], self.fixed_values[i]),
+                              *values(kind[1], self.moving_values[i]), float(self.residual[i]),
+                              {"azimuth": float(azimuths[blk % len(azimuths)]),
+                               "elevation": float(self.elevation[i])},
+                              sphere_rotations=self.rotations[i].copy())
+            out[blk].append(link)
+        return out
+
+
+def _screw_poses(u, p, ang, slide):
+    """Screw motions ``(m, n, 4, 4)`` about the lines (u, p) ``(m, 3)`` by the angles and
+    slides ``(m, n)``."""
+    R = _rot(u[:, None], ang)
+    T = np.zeros(R.shape[:-2] + (4, 4))
+    T[..., :3, :3] = R
+    T[..., :3, 3] = p[:, None] - np.einsum("mnij,mj->mni", R, p) + slide[..., None] * u[:, None]
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def _sphere_poses(R, c):
+    """Rotations ``R (m, n, 3, 3)`` about the centres ``c (m, 3)`` as 4x4 transforms."""
+    T = np.zeros(R.shape[:-2] + (4, 4))
+    T[..., :3, :3] = R
+    T[..., :3, 3] = c[:, None] - np.einsum("mnij,mj->mni", R, c)
+    T[..., 3, 3] = 1.0
+    return T
+
+
+def _joint_poses(kind, d, p, v, rotations):
+    zero = np.zeros_like(v)
+    if kind == "S":
+        return _sphere_poses(rotations, p)
+    return _screw_poses(d, p, v, zero) if kind == "R" else _screw_poses(d, p, zero, v)
+
+
+def _sphere_links_of(T, axes, points, subsets, azimuths, frame, kind: str, tol: float = 1e-9,
+                 name: str = "screws") -> _SphereLinks:
+    """Every RS, SR, PS or SP link of several sub-tasks of one task at several azimuths,
+    in one pass (what :func:`rs_links_at`, :func:`sr_links`, :func:`ps_links` and
+    :func:`sp_links` return, for each sub-task and azimuth).
+
+    Parameters
+    ----------
+    T : ndarray, shape (N, 4, 4)
+        The task's positions (position 1 the identity).
+    axes, points : ndarray, shape (N − 1, 3)
+        The axes (unit) and points of its screws S₁₂ … S₁N.
+    subsets : array_like of int, shape (S, n)
+        The positions (0-based, each row starting at 0) of each sub-task: n = 4 for RS
+        and SR, 3 for PS and SP.
+    azimuths : sequence of float
+        ψ (rad) of each great circle (validated numbers).
+    frame : ndarray, shape (3, 3)
+        The reference frame (columns e1, e2, e3) of the azimuths (validated).
+    kind : str
+        ``"RS"``, ``"SR"``, ``"PS"`` or ``"SP"``.
+    tol : float
+        Largest pose error accepted (rad, or translation relative to the sub-task's reach).
+    name : str
+        The screws' argument name in messages.
+
+    Returns
+    -------
+    _SphereLinks
+        The links and, per sub-task and azimuth, the error (coincident positions, a screw
+        that does not rotate for RS/SR, a condition vanishing on the whole circle).
+    """
+    sub = _subtasks(T, axes, points, subsets, name)
+    return _sphere_links(sub, np.asarray(azimuths, float), frame, kind, tol)
+
+
+def _sphere_links(sub: _SubTasks, psis, F, kind: str, tol: float) -> _SphereLinks:
+    """:func:`_sphere_links_of` of validated sub-tasks (:func:`_subtasks`): ``psis`` the
+    azimuths (A,) (rad, numbers), ``F`` the frame (3, 3), ``kind`` RS, SR, PS or SP,
+    ``tol`` the largest pose error accepted."""
+    S, n = sub.T.shape[:2]
+    A = len(psis)
+    error = np.repeat(sub.error[:, None], A, 1)
+    if kind in ("RS", "SR"):
+        turn = _turning_errors(sub.T)
+        error[(sub.error == "") & (turn != "")] = turn[(sub.error == "") & (turn != "")][:, None]
+    R, t = sub.Tn[:, 1:, :3, :3], sub.Tn[:, 1:, :3, 3]
+    if kind in ("SR", "SP"):
         R, t = _inverse(R, t)
-    return task, psis, tol, F, R, t
-
-
-def _rs_on(task, psi, tol, F, R, t, kind: str, roots=None):
-    """RS (``kind`` "RS") or SR ("SR") links of a set-up task (:func:`_rs_setup`) at the
-    azimuth ``psi``, in user coordinates (``roots``: the circle's :func:`_rs_roots`, when
-    already found)."""
-    a, b = _circle(F, psi)
-    L, c0 = task.L, task.c
-    out = []
-    n = len(task.T)
-    z = np.zeros(n)
-    I3 = np.eye(3)[None]
-    for beta, g, C, O, th, S in _rs_core(R, t, a, b, roots=roots):
-        Cw = C * L + c0
-        axis = Line(g, O * L + c0)
-        params = {"azimuth": psi, "elevation": float(beta)}
+    bs, az = np.nonzero(error == "")
+    a = np.broadcast_to(F[:, 2], (len(bs), 3))
+    b = np.cos(psis[az])[:, None] * F[:, 0] + np.sin(psis[az])[:, None] * F[:, 1]
+    if kind in ("RS", "SR"):
+        circle, beta, g, C, O, th, Srot, scale = _rs_batch(R, t, a, b, bs)
+        message = _RS_DEGENERATE
+    else:
+        circle, beta, g, C, sl, scale = _ps_batch(R, t, a, b, bs)
+        message = ("azimuth: degenerate: every slide direction on this great circle "
+                   "satisfies the PS condition (positions degenerate)")
+    error[bs[scale == 0], az[scale == 0]] = message
+    s = bs[circle]
+    L, c0 = sub.L[s], sub.c[s]
+    Cw = C * L[:, None] + c0
+    m = len(circle)
+    I3 = np.broadcast_to(np.eye(3), (m, 1, 3, 3))
+    zero = np.zeros((m, n))
+    if kind in ("RS", "SR"):
+        Op = O * L[:, None] + c0
+        u = g / np.linalg.norm(g, axis=-1, keepdims=True)              # as Line normalises
+        ang = np.concatenate([np.zeros((m, 1)), th], 1)
         if kind == "RS":
-            ax = axis.canonical()
-            link = BinaryLink("RS", ax, Line._exact(g.copy(), Cw), 0.0, np.nan, np.r_[0.0, th], z,
-                              z.copy(), z.copy(), 0.0, params,
-                              sphere_rotations=np.concatenate([I3, S]))
-        else:              # T_j = Rot_C(S'_jᵀ) G(−θ_j): sphere in the ground, axis in the body
-            ax = Line._exact(g.copy(), axis.foot_from(Cw))
-            link = BinaryLink("SR", Line._exact(g.copy(), Cw), ax, np.nan, 0.0, z, z.copy(),
-                              np.r_[0.0, -th], z.copy(), 0.0, params,
-                              sphere_rotations=np.concatenate([I3, np.swapaxes(S, -1, -2)]))
-        out.append(link)
-    return [lk for lk in _residuals(out, task) if lk.residual <= tol]
+            foot = Op - np.sum(Op * u, -1, keepdims=True) * u          # canonical point
+            geo = (u, foot, g, Cw, ang, zero, np.concatenate([I3, Srot], 1))
+        else:          # T_j = Rot_C(S'_jᵀ) G(−θ_j): sphere in the ground, axis in the body
+            foot = Op + np.sum((Cw - Op) * u, -1, keepdims=True) * u
+            geo = (g, Cw, g, foot, zero, -ang, np.concatenate([I3, np.swapaxes(Srot, -1, -2)], 1))
+    else:
+        sv = np.concatenate([np.zeros((m, 1)), sl * L[:, None]], 1)
+        Rb = sub.Tn[s, 1:, :3, :3]           # the body's rotations (P does not turn)
+        geo = ((g, Cw, g, Cw, sv, zero) if kind == "PS" else (g, Cw, g, Cw, zero, -sv)) + \
+            (np.concatenate([I3, Rb], 1),)
+    fd, fp, md, mp, fv, mv, rots = geo
+    res = np.zeros(0)
+    if m:
+        poses = _joint_poses(kind[0], fd, fp, fv, rots) @ _joint_poses(kind[1], md, mp, mv, rots)
+        rot, pos = pose_errors(poses, sub.T[s], sub.reach[s][:, None])
+        res = np.maximum(rot.max(-1), pos.max(-1))
+    links = _SphereLinks(kind, bs[circle] * A + az[circle], beta, fd, fp, md, mp, fv, mv, rots,
+                        res, error)
+    return links.take(res <= tol)
+
+
+def _one_task(screws, azimuths, frame, tol, kind: str):
+    """The links of one task at each azimuth (:func:`_sphere_links_of`), the arguments
+    validated in the order of the one-azimuth functions: ``(links, azimuths)``."""
+    n = 4 if kind in ("RS", "SR") else 3
+    T, axes, points = _task_arrays(screws, n)
+    sub = _subtasks(T, axes, points, np.arange(n)[None])
+    if sub.error[0]:
+        raise SynthesisError(sub.error[0])
+    psis = np.array([number(psi, "azimuth", unit_="rad") for psi in azimuths], float)
+    tol = number(tol, "tol", positive=True)
+    F = _frame_arg(frame, _screws(screws, "screws"))
+    return _sphere_links(sub, psis, F, kind, tol), psis
+
+
+def _sphere_family(screws, azimuth, frame, tol, kind: str) -> list[BinaryLink]:
+    """RS, SR, PS or SP links of one task at one azimuth, in user coordinates; an error
+    raises."""
+    links, psis = _one_task(screws, [azimuth], frame, tol, kind)
+    if links.error[0, 0]:
+        raise SynthesisError(links.error[0, 0])
+    return links.binary_links(psis)[0]
 
 
 def _rs_family(screws, azimuth, frame, tol, kind: str):
     """RS (``kind`` "RS") or SR ("SR") links at an azimuth, in user coordinates."""
-    task, (psi,), tol, F, R, t = _rs_setup(screws, [azimuth], frame, tol, kind)
-    return _rs_on(task, psi, tol, F, R, t, kind)
+    return _sphere_family(screws, azimuth, frame, tol, kind)
 
 
 def rs_links_grid(screws, azimuths, *, frame=None, tol: float = 1e-9) -> list[tuple]:
@@ -393,17 +783,10 @@ def rs_links_grid(screws, azimuths, *, frame=None, tol: float = 1e-9) -> list[tu
         :class:`SynthesisError` that :func:`rs_links_at` raises there.
     """
     try:
-        task, psis, tol, F, R, t = _rs_setup(screws, azimuths, frame, tol, "RS")
+        links, psis = _one_task(screws, azimuths, frame, tol, "RS")
     except SynthesisError as e:
         return [([], str(e)) for _ in azimuths]
-    out = []
-    roots = _rs_roots(R, t, [_circle(F, psi) for psi in psis])
-    for psi, rt in zip(psis, roots):
-        try:
-            out.append((_rs_on(task, psi, tol, F, R, t, "RS", rt), ""))
-        except SynthesisError as e:
-            out.append(([], str(e)))
-    return out
+    return [(lk, err) for lk, err in zip(links.binary_links(psis), links.error[0])]
 
 
 def rs_links_at(screws, azimuth: float, *, frame=None, tol: float = 1e-9) -> list[BinaryLink]:
@@ -476,76 +859,78 @@ def sr_links(screws, azimuth: float, *, frame=None, tol: float = 1e-9) -> list[B
 
 # ------------------------------------------------------------------ PS
 def _ps_det(d, R, t):
-    """The 6x6 consistency determinant of ``(R_j − I) C − s_j d = −t_j`` (N,)."""
+    """The 6x6 consistency determinant of ``(R_j − I) C − s_j d = −t_j`` (n,) for slide
+    directions ``d (n, 3)``; ``R (2, 3, 3)``, ``t (2, 3)`` the rotations and translations
+    of positions 2, 3 (one task), or ``(n, 2, 3, 3)``, ``(n, 2, 3)`` (one per direction)."""
     N = d.shape[0]
     M = np.zeros((N, 6, 6))
     for j in range(2):
-        M[:, 3 * j:3 * j + 3, :3] = R[j] - np.eye(3)
+        M[:, 3 * j:3 * j + 3, :3] = R[..., j, :, :] - np.eye(3)
         M[:, 3 * j:3 * j + 3, 3 + j] = -d
-        M[:, 3 * j:3 * j + 3, 5] = t[j]
+        M[:, 3 * j:3 * j + 3, 5] = t[..., j, :]
     return np.linalg.det(M)
 
 
-def _ps_core(R, t, a, b):
-    """PS links (normalised) on the circle (a, b): list of (β, d, C, s (2,))."""
-    p = lambda x, y: _ps_det((x * a + y * b)[None], R, t)[0]
-    c0, c2 = p(1.0, 0.0), p(0.0, 1.0)
-    c1 = p(1.0, 1.0) - c0 - c2
-    A, B, Cc = (c0 + c2) / 2, (c0 - c2) / 2, c1 / 2                # A + B cos 2β + C sin 2β
-    rho = np.hypot(B, Cc)
-    scale = max(abs(A), rho)
-    if scale == 0:
-        raise SynthesisError("azimuth: degenerate: every slide direction on this great circle "
-                             "satisfies the PS condition (positions degenerate)")
-    if rho < 1e-12 * scale or abs(A) > rho * (1 + 1e-12):
-        return []
-    phi = np.arctan2(Cc, B)
-    acs = np.arccos(np.clip(-A / rho, -1, 1))
-    betas = np.unique(np.round(np.array([(phi + acs) / 2, (phi - acs) / 2]) % np.pi, 14))
-    out = []
-    for beta in betas:
-        d = np.cos(beta) * a + np.sin(beta) * b
-        M = np.zeros((6, 5))
-        for j in range(2):
-            M[3 * j:3 * j + 3, :3] = R[j] - np.eye(3)
-            M[3 * j:3 * j + 3, 3 + j] = -d
+def _ps_batch(R, t, A, B, sub):
+    """PS links (normalised coordinates) on n great circles of S sub-tasks, in one pass:
+    on a circle the condition is ``a + b cos 2β + c sin 2β = 0`` (three samples give it),
+    solved in closed form (0 or 2 roots).
+
+    Parameters
+    ----------
+    R, t : ndarray, shape (S, 2, 3, 3) and (S, 2, 3)
+        Each sub-task's rotations and translations of positions 2, 3 (normalised).
+    A, B : ndarray, shape (n, 3)
+        The circles ``d(β) = cos β A + sin β B``.
+    sub : ndarray of int, shape (n,)
+        The sub-task of each circle.
+
+    Returns
+    -------
+    circle : ndarray of int (m,)
+        The circle of each link (ascending; a circle's links by ascending β).
+    beta : ndarray (m,)
+        Elevation β (rad).
+    d, C : ndarray (m, 3)
+        Slide direction and sphere centre (position 1).
+    s : ndarray (m, 2)
+        Slides at positions 2, 3.
+    scale : ndarray (n,)
+        The condition's size on each circle (0: it vanishes on the whole circle).
+    """
+    n = len(A)
+    X = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, 1.0]])
+    d3 = X[None, :, :1] * A[:, None] + X[None, :, 1:] * B[:, None]          # (n, 3, 3)
+    v = _ps_det(d3.reshape(-1, 3), np.repeat(R[sub], 3, 0),
+                np.repeat(t[sub], 3, 0)).reshape(n, 3)
+    c0, c2 = v[:, 0], v[:, 1]
+    c1 = v[:, 2] - c0 - c2
+    Aq, Bq, Cq = (c0 + c2) / 2, (c0 - c2) / 2, c1 / 2              # A + B cos 2β + C sin 2β
+    rho = np.hypot(Bq, Cq)
+    scale = np.maximum(np.abs(Aq), rho)
+    live = np.flatnonzero((scale != 0) & ~(rho < 1e-12 * scale) &
+                          ~(np.abs(Aq) > rho * (1 + 1e-12)))
+    phi = np.arctan2(Cq[live], Bq[live])
+    acs = np.arccos(np.clip(-Aq[live] / rho[live], -1, 1))
+    two = np.sort(np.round(np.stack([(phi + acs) / 2, (phi - acs) / 2], 1) % np.pi, 14), 1)
+    keep = np.ones(two.shape, bool)
+    keep[:, 1] = two[:, 1] != two[:, 0]
+    ci, ki = np.nonzero(keep)
+    circle, beta = live[ci], two[ci, ki]
+    d = np.cos(beta)[:, None] * A[circle] + np.sin(beta)[:, None] * B[circle]
+    s = sub[circle]
+    M = np.zeros((len(beta), 6, 5))
+    for j in range(2):
+        M[:, 3 * j:3 * j + 3, :3] = R[s, j] - np.eye(3)
+        M[:, 3 * j:3 * j + 3, 3 + j] = -d
+    if len(beta):
         sv = np.linalg.svd(M, compute_uv=False)
-        if sv[-1] < 1e-10 * sv[0]:
-            continue                                            # C not determined
-        x = np.linalg.lstsq(M, -t.reshape(-1), rcond=None)[0]
-        out.append((float(beta), d, x[:3], x[3:]))
-    return out
-
-
-def _ps_family(screws, azimuth, frame, tol, kind):
-    task = _task(screws, "screws", (3,))
-    scr = _screws(screws, "screws")
-    psi = number(azimuth, "azimuth", unit_="rad")
-    tol = number(tol, "tol", positive=True)
-    F = _frame_arg(frame, scr)
-    R, t = task.R, task.t
-    if kind == "SP":
-        R, t = _inverse(R, t)
-    a, b = _circle(F, psi)
-    L, c0 = task.L, task.c
-    z = np.zeros(3)
-    I3 = np.eye(3)[None]
-    out = []
-    for beta, d, C, s in _ps_core(R, t, a, b):
-        Cw = C * L + c0
-        params = {"azimuth": psi, "elevation": beta}
-        if kind == "PS":
-            link = BinaryLink("PS", Line._exact(d.copy(), Cw), Line._exact(d.copy(), Cw.copy()),
-                              np.inf, np.nan, z, np.r_[0.0, s * L], z.copy(), z.copy(), 0.0,
-                              params, sphere_rotations=np.concatenate([I3, R]))
-        else:          # inverse: T'_j = Trans(s_j d) Rot_C(R'_j) → T_j = Rot_C(R_j) Trans(−s_j d)
-            link = BinaryLink("SP", Line._exact(d.copy(), Cw), Line._exact(d.copy(), Cw.copy()),
-                              np.nan, np.inf, z, z.copy(), z.copy(), np.r_[0.0, -s * L], 0.0,
-                              params, sphere_rotations=np.concatenate([I3, task.R]))
-        _residual(link, task)
-        if link.residual <= tol:
-            out.append(link)
-    return out
+        ok = ~(sv[:, -1] < 1e-10 * sv[:, 0])                        # C not determined
+        x = np.einsum("mij,mj->mi", np.linalg.pinv(np.where(ok[:, None, None], M, np.eye(6, 5))),
+                      -t[s].reshape(-1, 6))
+    else:
+        ok, x = np.zeros(0, bool), np.zeros((0, 5))
+    return circle[ok], beta[ok], d[ok], x[ok, :3], x[ok, 3:], scale
 
 
 def ps_condition(screws, direction) -> float:
@@ -589,7 +974,7 @@ def ps_links(screws, azimuth: float, *, frame=None, tol: float = 1e-9) -> list[B
         Bad input (naming it), coincident positions, or a condition vanishing on the
         whole circle.
     """
-    return _ps_family(screws, azimuth, frame, tol, "PS")
+    return _sphere_family(screws, azimuth, frame, tol, "PS")
 
 
 def sp_links(screws, azimuth: float, *, frame=None, tol: float = 1e-9) -> list[BinaryLink]:
@@ -620,7 +1005,7 @@ def sp_links(screws, azimuth: float, *, frame=None, tol: float = 1e-9) -> list[B
     SynthesisError
         As :func:`ps_links`.
     """
-    return _ps_family(screws, azimuth, frame, tol, "SP")
+    return _sphere_family(screws, azimuth, frame, tol, "SP")
 
 
 

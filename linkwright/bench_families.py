@@ -235,7 +235,8 @@ def generate_sphere(family: str, seed: int):
 
 def _generate_hooke(family, rng, L, O):
     from synthesis import Screw
-    from synthesis.hooke_families import _about, _rot, hooke_arrangements
+    from synthesis.binary import _about, _rot
+    from synthesis.hooke_families import hooke_arrangements
     from synthesis.spherical import azimuth_of, task_frame
     name, main, x, n_b, k = hooke_arrangements(family)[0]
     a = _unit(rng.normal(size=3))

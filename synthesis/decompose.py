@@ -52,8 +52,6 @@ import itertools
 import numpy as np
 import pandas as pd
 
-from closure import Mechanism
-
 from .binary import BinaryLink, _fibonacci
 from .errors import SynthesisError
 from .screw import Line, Screw
@@ -61,7 +59,7 @@ from .spherical import task_frame
 from .transition import TRANSITION_POSITIONS, _screw_matrix, transition_joints
 from .twopos import two_position_links
 from .validate import array, task_scale
-from .verify import _frames_of, in_chunks, pose_errors
+from .verify import verify_driven
 
 __all__ = ["MAIN_POSITIONS", "arrangements", "decomposed_dyads", "FREE_PARAMETERS"]
 
@@ -147,17 +145,6 @@ def angle_grid(v, name: str, default) -> np.ndarray:
         raise SynthesisError(f"{name}: expected a number or a 1-D array of angles (rad), got "
                              f"shape {np.shape(v)}")
     return a
-
-
-def nan_geometry(row: dict, family: str) -> dict:
-    """A failed variant's joint columns: types and pitches, NaN axes and points."""
-    for k, t in enumerate(family, start=1):
-        row[f"j{k}_type"] = t
-        for c in ("ux", "uy", "uz", "x", "y", "z"):
-            row[f"j{k}_{c}"] = np.nan
-        row[f"j{k}_pitch"] = PITCH_OF_KIND.get(t, np.nan)
-    return row
-
 
 
 def _pitches(family, pitch):
@@ -266,7 +253,6 @@ def verify_dyads(chains, targets, length: float) -> np.ndarray:
     chains : list of (types (3 letters), lines (3 Line), pitches (3), values (P, 3, 2):
     angle (rad) and slide (length) of every joint at every position).
     """
-    from .verify import verify_driven
     return verify_driven([(t, lines, vals, pitches) for t, lines, pitches, vals in chains],
                          targets, length)
 

@@ -45,6 +45,7 @@ from .errors import SynthesisError
 from .screw import Line
 from .transition import Transitions, transition_joints
 from .validate import array
+from .verify import verify_driven
 
 __all__ = ["hooke_arrangements", "hooke_family_dyads"]
 
@@ -86,29 +87,6 @@ def hooke_arrangements(family: str, n_positions: int | None = None) -> list[tupl
             if n_positions is None or n == n_positions:
                 out.append((name, main, x, _MAIN[main], 1))
     return out
-
-
-def _about(R, O):
-    S = np.eye(4)
-    S[:3, :3], S[:3, 3] = R, O - R @ O
-    return S
-
-
-def _rot(u, ang):
-    K = np.array([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
-    return np.eye(3) + np.sin(ang) * K + (1 - np.cos(ang)) * K @ K
-
-
-def verify_hooke(chains, targets, length: float) -> np.ndarray:
-    """Pose errors of chains with a U joint, driven by the engine in one bulk evaluation
-    (:func:`synthesis.verify.verify_driven`).
-
-    chains : list of (types, joints, values, pitch): ``joints`` per joint a Line (R, P, H,
-    C) or ``(a, b, O)`` (U); ``values (P, 3, 2)``: (angle, slide) of R, P, H, C joints, (α,
-    γ) of the U joint; ``pitch`` (length/rad) of an H joint.
-    """
-    from .verify import verify_driven
-    return verify_driven(chains, targets, length)
 
 
 def _centres(centre, screws, reach):
@@ -222,7 +200,7 @@ def hooke_family_dyads(family: str, screws, *, azimuth=None, axis_azimuth=None, 
     # ---- the variants' joints and values, their verification
     geo = _variants(blocks, lk, l, si, tr, j, N)
     chains = _chains(family, blocks, lk, l, geo, ph)
-    residual = verify_hooke(chains, T, reach)
+    residual = verify_driven(chains, T, reach)
     # ---- rows in the table's order
     fa = np.array(failed, dtype=object).reshape(-1, 5)
     kb = np.r_[lk["block"][l], fa[:, 0].astype(int)]
@@ -343,7 +321,7 @@ def _joint_columns(geo) -> list:
 
 
 def _chains(family, blocks, lk, l, geo, ph) -> list:
-    """The variants as chains for :func:`verify_hooke`."""
+    """The variants as chains for :func:`synthesis.verify.verify_driven`."""
     a, b, O, vals = geo["a"], geo["b"], geo["O"], geo["vals"]
     lines = [[Line._exact(d, p) for d, p in zip(geo[u], geo[q])] for u, q in (("Xd", "Xp"),
                                                                               ("Md", "M3"))]

@@ -172,8 +172,8 @@ def _main_links(main, screws, T, axes, points, combos, psis, ph, frame) -> _Main
     (:func:`synthesis.spherical._sphere_links_of`), HS links per sub-task and azimuth
     (:func:`synthesis.spherical.hs_links`); errors with the screws named as in the
     whole task."""
-    from .spherical import _sphere_links_of, hs_links
-    S, A = len(combos), len(psis)
+    from .spherical import _hs_links_grid, _sphere_links_of
+    S = len(combos)
     subsets = np.concatenate([np.zeros((S, 1), int), combos], 1)
     if main in ("RS", "PS"):
         sl = _sphere_links_of(T, axes, points, subsets, psis, frame, main)
@@ -181,21 +181,10 @@ def _main_links(main, screws, T, axes, points, combos, psis, ph, frame) -> _Main
         out = _MainLinks(sl.block, sl.elevation, sl.fixed_dir, sl.fixed_point, sl.moving_point,
                          sl.fixed_values, error)
     else:
-        error = np.full((S, A), "", dtype=object)
-        links, blocks = [], []
-        for i, others in enumerate(combos.tolist()):
-            sub = [screws[j - 1] for j in others]
-            for a, psi in enumerate(psis):
-                try:
-                    lks = hs_links(sub, ph, float(psi), frame=frame)
-                except SynthesisError as e:
-                    error[i, a] = str(e)
-                    continue
-                links += lks
-                blocks += [i * A + a] * len(lks)
+        links, blocks, error = _hs_links_grid("HS", screws, combos, psis, ph, frame)
         n = subsets.shape[1]
         arr = lambda f, shape: np.array([f(lk) for lk in links], float).reshape(shape)
-        out = _MainLinks(np.array(blocks, int),
+        out = _MainLinks(blocks,
                          arr(lambda lk: lk.parameters.get("elevation", np.nan), (-1,)),
                          arr(lambda lk: lk.fixed_axis.direction, (-1, 3)),
                          arr(lambda lk: lk.fixed_axis.point, (-1, 3)),

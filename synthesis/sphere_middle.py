@@ -189,28 +189,17 @@ def _main_links(main, screws, T, axes, points, combos, psis, ph, frame):
     sub-task and azimuth (:func:`synthesis.spherical.sh_links`); errors with the screws
     named as in the whole task."""
     from .sphere_families import _renumbered
-    from .spherical import _SphereLinks, _sphere_links_of, sh_links
-    S, A = len(combos), len(psis)
+    from .spherical import _SphereLinks, _hs_links_grid, _sphere_links_of
+    S = len(combos)
     subsets = np.concatenate([np.zeros((S, 1), int), combos], 1)
     if main in ("SR", "SP"):
         sl = _sphere_links_of(T, axes, points, subsets, psis, frame, main)
     else:
-        error = np.full((S, A), "", dtype=object)
-        links, blocks = [], []
-        for i, others in enumerate(combos.tolist()):
-            sub = [screws[j - 1] for j in others]
-            for a, psi in enumerate(psis):
-                try:
-                    lks = sh_links(sub, ph, float(psi), frame=frame)
-                except SynthesisError as e:
-                    error[i, a] = str(e)
-                    continue
-                links += lks
-                blocks += [i * A + a] * len(lks)
+        links, blocks, error = _hs_links_grid("SH", screws, combos, psis, ph, frame)
         n = subsets.shape[1]
         arr = lambda f, shape: np.array([f(lk) for lk in links], float).reshape(shape)
         line = lambda ax, c: arr(lambda lk: getattr(getattr(lk, ax), c), (-1, 3))
-        sl = _SphereLinks("SH", np.array(blocks, int),
+        sl = _SphereLinks("SH", blocks,
                           arr(lambda lk: lk.parameters.get("elevation", np.nan), (-1,)),
                           line("fixed_axis", "direction"), line("fixed_axis", "point"),
                           line("moving_axis", "direction"), line("moving_axis", "point"),

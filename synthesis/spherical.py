@@ -1116,6 +1116,28 @@ def _hs_family(screws, pitch, azimuth, frame, tol, kind):
     return out
 
 
+def _hs_links_grid(kind, screws, combos, psis, pitch, frame):
+    """HS (``kind`` "HS") or SH links of every sub-task × azimuth of a task: sub-task i
+    takes the screws of positions ``combos[i]`` (1-based, position 1 implied), azimuth a
+    the ψ ``psis[a]``.  Returns the links, each link's block ``i · len(psis) + a``
+    (ndarray of int) and the error message of each block (``""`` where it solved), an
+    (len(combos), len(psis)) object array."""
+    fn = hs_links if kind == "HS" else sh_links
+    error = np.full((len(combos), len(psis)), "", dtype=object)
+    links, blocks = [], []
+    for i, others in enumerate(np.asarray(combos).tolist()):
+        sub = [screws[j - 1] for j in others]
+        for a, psi in enumerate(psis):
+            try:
+                found = fn(sub, pitch, float(psi), frame=frame)
+            except SynthesisError as e:
+                error[i, a] = str(e)
+                continue
+            links += found
+            blocks += [i * len(psis) + a] * len(found)
+    return links, np.array(blocks, int), error
+
+
 def hs_links(screws, pitch: float, azimuth: float, *, frame=None,
              tol: float = 1e-9) -> list[BinaryLink]:
     """HS links (helical joint of given pitch in the ground, sphere centre in the body)

@@ -159,9 +159,9 @@ def bench_links(quick: bool = False) -> list[str]:
                 f"{tb * 1e3:.0f} | {len(found)} | {missed} | {tb / t_u:.0f}× |")
     from linkwright.bench import first_call
     t_compile, t_load = first_call(
-        "import time\nfrom linkwright.bench_families import generate\n"
+        "import time\nfrom linkwright.bench_families import generate_sphere\n"
         "from synthesis.helical import helical_links\nfrom synthesis.spherical import hs_links\n"
-        "s = generate('RHS', 0)[0]\nt0 = time.perf_counter()\n"
+        "s = generate_sphere('RHS', 0)[0]\nt0 = time.perf_counter()\n"
         "helical_links(s[0], s[1], 0.25, 0.0)\nhs_links(s[:3], 0.25, 0.9)\n"
         "t = time.perf_counter() - t0")
     return [

@@ -34,15 +34,11 @@ entry point for all of them.
 from __future__ import annotations
 
 import functools
-import itertools
 
 import numpy as np
 import pandas as pd
 
-from closure.frames import cross
-
 from .errors import SynthesisError
-from .rr import _angle_about, _rot, rotation_axis_between, rr_links
 from .screw import Line
 from .validate import screws as _screws, task_scale
 # chain_mechanism, verify_chain, verify_chains: re-exported (they lived here before synthesis.verify)
@@ -83,72 +79,17 @@ def rrr_dyads(screws) -> pd.DataFrame:
     ----------
     screws : sequence of three Screw
         S₁₂, S₁₃, S₁₄.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The 36 variants (:func:`synthesis.rrr.rrr_table`: the three RR triples solved,
+        the variants built and verified in one vectorised pass).
     """
+    from .rrr import rrr_table
     screws = _check_screws(screws, 4, "RRR")
     T, size = _task(screws)                                   # T[k]: position k+1 from 1
-    rows, chains = [], []
-    variant = 0
-    for triple in ((1, 2, 3), (1, 2, 4), (1, 3, 4)):
-        last = ({1, 2, 3, 4} - set(triple)).pop()
-        j, n = triple[1], triple[2]
-        try:
-            links = rr_links(screws[j - 2], screws[n - 2])
-            err = None
-        except SynthesisError as e:
-            links, err = [], str(e)
-        for s in triple:
-            order = f"RR through {triple}; axis 1 carries position {s} to {last}"
-            if err is not None:
-                for rr_i, mech in itertools.product((0, 1), "ab"):
-                    variant += 1
-                    rows.append(_failed_row(variant, order, mech, rr_i, err))
-                continue
-            for rr_i, link in enumerate(links):
-                angles = {1: 0, j: 1, n: 2}
-                fa = {k: link.fixed_angles[i] for k, i in angles.items()}
-                ma = {k: link.moving_angles[i] for k, i in angles.items()}
-                M, Q = link.moving_axis.direction, link.moving_axis.point
-                Ts, Tl = T[s - 1], T[last - 1]
-                try:
-                    ax1, phi = rotation_axis_between(Ts[:3, :3] @ M, Ts[:3, :3] @ Q + Ts[:3, 3],
-                                                     Tl[:3, :3] @ M, Tl[:3, :3] @ Q + Tl[:3, 3])
-                except SynthesisError as e:
-                    for mech in "ab":
-                        variant += 1
-                        rows.append(_failed_row(variant, order, mech, rr_i, str(e)))
-                    continue
-                # joint 3 at the last position: the rest of the body's motion about axis 3
-                pre = _rot(ax1, phi) @ _rot(link.fixed_axis, fa[s])
-                beta = _angle_about(link.moving_axis, np.linalg.inv(pre) @ Tl)
-                for mech in "ab":
-                    variant += 1
-                    if mech == "a":
-                        lines = [ax1, link.fixed_axis, link.moving_axis]
-                        vals = {k: (0.0, fa[k], ma[k]) for k in triple}
-                        vals[last] = (phi, fa[s], beta)
-                    else:
-                        ax1b = ax1.transformed(_rot(link.fixed_axis, -fa[s]))
-                        lines = [link.fixed_axis, ax1b, link.moving_axis]
-                        vals = {k: (fa[k], 0.0, ma[k]) for k in triple}
-                        vals[last] = (fa[s], phi, beta)
-                    lines = _canonical_chain(lines)
-                    jv = np.array([vals[k] for k in (1, 2, 3, 4)])
-                    rows.append(_row("RRR", variant, order, "RRR", lines, np.nan,
-                                     arrangement=mech, transition="RR", mechanism=mech, rr=rr_i,
-                                     main_link="RR", main_positions=str(triple),
-                                     transition_position=s, joint_values=jv))
-                    chains.append((len(rows) - 1, ("RRR", lines, jv)))
-    res = verify_chains([c for _, c in chains], np.array(T), size)
-    for (i, _), r in zip(chains, res):
-        rows[i]["residual"] = float(r)
-    return pd.DataFrame(rows)
-
-
-def _canonical_chain(lines):
-    out = [lines[0].canonical()]
-    for ln in lines[1:]:
-        out.append(ln.canonical(out[-1]))
-    return out
+    return rrr_table(screws, np.array(T), size)
 
 
 def _row(family, variant, order, types, lines, residual, **extra):
@@ -166,14 +107,6 @@ def _row(family, variant, order, types, lines, residual, **extra):
         for p in range(jv.shape[0]):
             for k in range(jv.shape[1]):
                 row[f"q{k + 1}_pos{p + 1}"] = jv[p, k]
-    return row
-
-
-def _failed_row(variant, order, mech, rr_i, reason):
-    row = {c: np.nan for c in DYAD_COLUMNS}
-    row.update(family="RRR", variant=variant, order=order, mechanism=mech, rr=rr_i,
-               reason=reason, j1_type="R", j2_type="R", j3_type="R", arrangement=mech,
-               transition="RR", j1_pitch=0.0, j2_pitch=0.0, j3_pitch=0.0)
     return row
 
 
@@ -434,7 +367,7 @@ def _inverse_family(fam, screws, choices):
     negated), the regular rows' axes re-canonicalised and oriented as arrays, and every
     regular chain verified again by the closure engine.
     """
-    from .decompose import verify_dyads
+    from .decompose import _canonical_points, _flip_signs, verify_dyads
     from .inversion import inverse_screws
     screws = _screws(screws, "screws")
     ch = dict(choices)
@@ -478,22 +411,11 @@ def _inverse_family(fam, screws, choices):
                 raise SynthesisError(f"joint {k + 1}: a regular row of {fam[::-1]} has no "
                                      "finite unit axis")
             U[k] = U[k] / nrm[:, None]
-        # canonical chain (Line.canonical): joint 1 the foot from the origin, the others the
-        # foot of the common normal with the previous joint (parallel: the perpendicular foot)
-        P[0] = P[0] + np.einsum("ij,ij->i", -P[0], U[0])[:, None] * U[0]
-        for k in (1, 2):
-            u, v, w = U[k - 1], U[k], P[k - 1] - P[k]
-            b = np.einsum("ij,ij->i", u, v)
-            den = 1 - b * b
-            d, e = np.einsum("ij,ij->i", u, w), np.einsum("ij,ij->i", v, w)
-            par = den < 1e-12
-            t = np.where(par, e, (e - b * d) / np.where(par, 1.0, den))
-            P[k] = P[k] + t[:, None] * v
+        P = _canonical_points(U, P)                     # the canonical chain (Line.canonical)
         # orientation rule of the table (decompose._flipped): largest component positive
         sg = []
         for k in range(3):
-            i = np.argmax(np.abs(U[k]) - 1e-12 * np.arange(3), axis=1)
-            s = np.where(U[k][np.arange(len(reg)), i] < 0, -1.0, 1.0)
+            s = _flip_signs(U[k])
             U[k] = s[:, None] * U[k]
             sg.append(s)
             for p in range(1, n + 1):

@@ -14,10 +14,20 @@ CC     5      6          directions: the spherical five-orientation Burmester pr
                          ``gᵀ (R_j − I) w = 0``, j = 2…5 (Murray & McCarthy), as a 6 × 6
                          generalised eigenproblem; the axis points and slides are then
                          linear (:func:`synthesis.cylindric.cc5_directions`)
+CS     6      26         cylinder axis direction d given (``fixed_direction``): the centre's
+                         positions projected on the plane ⊥ d are concyclic, a 5 × 3
+                         matrix of degrees (2, 1, 1) in the S centre drops rank
+                         (Su, Wampler & McCarthy): the null space of its minors' Macaulay
+                         matrix and a 26 × 26 shift eigenproblem (:mod:`synthesis.cs`)
 SS, TS 7      20         the sphere conditions ``|T_j q − p| = |q − p|``, j = 2…7, are six
                          bilinear equations in the homogeneous centres (p, 1), (q, 1)
                          (Innocenti; Liao & McCarthy): a 20 × 20 generalised eigenproblem
 =====  =====  =========  ==========================================================
+
+The CS count is the degree of the locus where a 5 × 3 matrix whose columns have degrees
+(2, 1, 1) drops rank, h₃(2, 1, 1) = 26 (Thom–Porteous); the Macaulay matrix's null space
+has exactly that dimension, read off its singular values (reported as ``nullity``, with
+the singular-value ``gap``), so again every solution is found without path tracking.
 
 The CC and SS counts are the generic numbers of solutions of a rectangular
 multiparameter eigenvalue problem (an (n + k − 1) × n matrix linear in k + 1 homogeneous
@@ -44,16 +54,18 @@ import time
 
 import numpy as np
 import pandas as pd
+from scipy.spatial.transform import Rotation
 
 from .binary import _check_rotations, _perp, _rot, _signed_angle, _task
+from .cs import cs_centres, cs_frame
 from .cylindric import _cc5
 from .dyads import DYAD_COLUMNS
 from .errors import SynthesisError
 from .rmep import solve_bilinear
 from .rr import rr_links
 from .screw import Line, Screw
-from .validate import screws as _screws
-from .verify import pose_errors, verify_links, verify_points
+from .validate import screws as _screws, unit as _unit
+from .verify import pose_errors, verify_links, verify_open_chains, verify_points
 
 __all__ = ["complete_dyads", "least_squares_dyads", "COMPLETE_CHAINS", "ss_centres"]
 
@@ -61,6 +73,7 @@ __all__ = ["complete_dyads", "least_squares_dyads", "COMPLETE_CHAINS", "ss_centr
 COMPLETE_CHAINS = {
     "RR": (3, 2, "Suh; Brunnthaler, Schröcker & Husty 2005 (the Bennett pair)"),
     "CC": (5, 6, "Murray & McCarthy 1994"),
+    "CS": (6, 26, "Su, Wampler & McCarthy 2004"),
     "SS": (7, 20, "Innocenti 1995; Liao & McCarthy 2001"),
     "TS": (7, 20, "Innocenti 1995; Liao & McCarthy 2001"),
 }
@@ -104,15 +117,19 @@ def _table(rows, attrs) -> pd.DataFrame:
     return df
 
 
-def complete_dyads(chain: str, screws) -> pd.DataFrame:
+def complete_dyads(chain: str, screws, fixed_direction=None) -> pd.DataFrame:
     """Every real solution of a chain's synthesis at its maximal number of positions.
 
     Parameters
     ----------
     chain : str
-        ``"RR"`` (3 positions), ``"CC"`` (5), ``"SS"`` or ``"TS"`` (7).
+        ``"RR"`` (3 positions), ``"CC"`` (5), ``"CS"`` (6), ``"SS"`` or ``"TS"`` (7).
     screws : sequence of Screw
         S₁₂ … S₁N (N = N_max of the chain), the displacements from position 1.
+    fixed_direction : array_like, shape (3,), optional
+        CS only, and required there: the unit direction of the C joint's axis (the
+        free choice of Su, Wampler & McCarthy: 2 parameters).  Refused for the other
+        chains.
 
     Returns
     -------
@@ -122,25 +139,34 @@ def complete_dyads(chain: str, screws) -> pd.DataFrame:
         (1 at the ground, 2 on the body; the ``j3_*`` columns are empty)
         ``j{k}_type, j{k}_ux, j{k}_uy, j{k}_uz, j{k}_x, j{k}_y, j{k}_z`` in position 1
         (a spherical joint has no axis: its direction is NaN and its point is the
-        centre), ``residual`` (the largest pose error, rad or length over the task's reach,
+        centre; a C joint's point is the foot of the perpendicular from the origin),
+        ``residual`` (the largest pose error, rad or length over the task's reach,
         when the closure engine drives the chain through all positions; for SS/TS the
-        moving centre's error, driven through the ground joint's two rotations),
+        moving centre's error, driven through the ground joint's two rotations; for CS
+        the body's pose error, driven through the C joint's angle and slide and the S
+        joint as three revolutes about x, y, z at its centre: XYZ angles of its
+        rotations), ``radius`` (SS, TS: the link's length; CS: the centre's distance
+        from the C axis),
         ``reason`` (empty), the joint rotations ``q{k}_pos{p}`` (rad) and, for C joints,
         the slides ``d{k}_pos{p}`` (length).  ``.attrs``: ``chain``, ``positions``,
         ``complex_count`` (solutions found over the complex numbers, real ones
         included), ``expected_count`` (the generic number from the literature) and
         ``source``, ``real_count`` (real solutions of the equations), ``rejected``
         (real solutions that are no working chain, e.g. parallel CC axes),
-        ``at_infinity`` (SS: solutions with a centre at infinity), ``paths_tracked``,
-        ``failed_paths`` (eigenpairs that did not polish to a solution), ``method``,
-        ``time_s`` (s).
+        ``at_infinity`` (SS, CS: solutions with a centre, or for CS a circle, at
+        infinity), ``paths_tracked``, ``failed_paths`` (eigenpairs that did not polish
+        to a solution, or polished to one found already), ``method``, ``time_s`` (s);
+        CS also ``fixed_direction``, ``nullity`` (the Macaulay matrix's null space
+        dimension: the complex solution count with multiplicity) and ``gap`` (its
+        last nonzero and first zero singular values over the largest).
 
     Raises
     ------
     SynthesisError
         ``chain`` not a string or not one of the chains above; ``screws`` not a
-        sequence of N_max − 1 Screw; a degenerate task (coincident positions, a planar
-        motion, …: the message names the cause).
+        sequence of N_max − 1 Screw; ``fixed_direction`` missing for CS, given for
+        another chain, or not a unit 3-vector; a degenerate task (coincident positions,
+        a planar motion, …: the message names the cause).
     """
     name = _chain_name(chain, COMPLETE_CHAINS)
     n_max, expected, source = COMPLETE_CHAINS[name]
@@ -149,10 +175,22 @@ def complete_dyads(chain: str, screws) -> pd.DataFrame:
         raise SynthesisError(f"screws: {name} has finitely many solutions through {n_max} "
                              f"positions: expected {n_max - 1} screws S_12 … S_1{n_max}, got "
                              f"{len(scr)}")
+    if name == "CS":
+        if fixed_direction is None:
+            raise SynthesisError("fixed_direction: CS has finitely many solutions through six "
+                                 "positions only with the C axis direction given: expected a "
+                                 "unit 3-vector, got None")
+        d = _unit(fixed_direction, "fixed_direction")
+    elif fixed_direction is not None:
+        raise SynthesisError(f"fixed_direction: only CS takes a fixed direction (its free "
+                             f"choice); {name} is complete without one: expected None, got "
+                             f"{fixed_direction!r}")
     t0 = time.perf_counter()
     order = f"complete: positions 1–{n_max}"
     if name == "RR":
         rows, info = _rr_rows(scr, order)
+    elif name == "CS":
+        rows, info = _cs_rows(scr, order, d)
     elif name == "CC":
         rows, info = _cc_rows(scr, order)
     else:
@@ -194,6 +232,75 @@ def _cc_rows(scr, order):
                   "rejected": info["rejected"], "at_infinity": 0,
                   "failed_paths": info["unsolved"],
                   "method": "directions: 6 x 6 generalised eigenproblem; moments: linear"}
+
+
+# ------------------------------------------------------------------ CS
+def _cs_rows(scr, order, d):
+    task = _task(scr, "screws", (6,))
+    # a point fixed in every position (a spherical motion): a CS chain with its S centre
+    # there and any axis of direction d reaches them all (the solutions are not isolated)
+    A = (task.R - np.eye(3)).reshape(-1, 3)
+    fix = np.linalg.lstsq(A, -task.t.reshape(-1), rcond=None)[0]
+    if np.abs(A @ fix + task.t.reshape(-1)).max() < 1e-9:
+        raise SynthesisError(
+            f"screws: degenerate task: the positions are (nearly) spherical, rotations about "
+            f"the point {np.round(fix * task.L + task.c, 6).tolist()}: every CS chain with its "
+            "S centre there reaches them (the solutions are not isolated)")
+    sol = cs_centres(task.R, task.t, d)
+    # the null space must be clear (its singular values some orders of magnitude below
+    # the rest) and the shift defined: otherwise the solutions are not isolated, or some
+    # are too far away to be told apart (e.g. rotation axes all nearly parallel to d)
+    if sol.nullity == 0 or sol.shift_rcond < 1e-6 or sol.gap[0] < 1e4 * sol.gap[1]:
+        raise SynthesisError(
+            f"screws: degenerate task for fixed_direction {np.round(d, 6).tolist()}: the CS "
+            "circle conditions through these six positions do not have finitely many "
+            f"solutions, or nearly so (Macaulay null space {sol.nullity}, singular-value gap "
+            f"{sol.gap[0]:.1e}/{sol.gap[1]:.1e}, shift conditioning {sol.shift_rcond:.1e}; e.g. "
+            "every rotation about an axis (nearly) parallel to the fixed direction, or a pure "
+            "translation)")
+    good = (sol.residual <= 1e-9) & ~sol.duplicate
+    use = good & sol.real
+    T, L, c = task.T, task.L, task.c
+    F = cs_frame(d)
+    rows, chains, rejected = [], [], 0
+    for i in np.flatnonzero(use):
+        qn = sol.q[i].real
+        pn = sol.axis_point[i].real
+        r2 = float(sol.radius2[i].real)
+        if r2 <= 1e-16:                     # the centre on the axis: no link (angles undefined)
+            rejected += 1
+            continue
+        # joint values in the frame of d: the centre's positions about the axis trace
+        Pn = np.einsum("pij,j->pi", task.Tn[:, :3, :3], qn) + task.Tn[:, :3, 3]
+        U = (Pn - pn) @ F
+        ang = np.arctan2(U[:, 1], U[:, 0])
+        theta = np.angle(np.exp(1j * (ang - ang[0])))
+        slide = (U[:, 2] - U[0, 2]) * L
+        axis = Line(d, pn * L + c).canonical()
+        q = qn * L + c
+        # the S joint's rotations: the body's, less the C joint's turn about d
+        Rd = _rot(d, theta)                                              # (P, 3, 3)
+        S = np.swapaxes(Rd, 1, 2) @ T[:, :3, :3]
+        e = Rotation.from_matrix(S).as_euler("XYZ")
+        lines = [axis] + [Line._exact(np.eye(3)[k], q.copy()) for k in range(3)]
+        chains.append(("CRRR", lines, [0.0] * 4, np.column_stack([theta, slide, e])))
+        rows.append(_row("CS", len(rows) + 1, order, "CS",
+                         [axis, Line._exact(np.full(3, np.nan), q)], np.nan,
+                         joint_values=theta[:, None], slides=slide[:, None],
+                         radius=float(np.sqrt(r2) * L)))
+    if chains:
+        r = verify_open_chains(chains, T, task.reach)
+        for row, rv in zip(rows, r):
+            row["residual"] = float(rv)
+            if rv > 1e-9:
+                row["reason"] = (f"ill-conditioned: driven by the engine the chain misses the "
+                                 f"positions by {rv:.1e} (rad, or relative to the task's reach)")
+    return rows, {"complex_count": int(good.sum()), "real_count": int(use.sum()),
+                  "rejected": rejected, "at_infinity": int(sol.at_infinity.sum()),
+                  "failed_paths": int((~good & ~sol.at_infinity).sum()),
+                  "fixed_direction": d.copy(), "nullity": sol.nullity, "gap": sol.gap,
+                  "method": f"Macaulay null space of the 10 rank-drop minors (degree 6, "
+                            f"100 x 84) and a {sol.nullity} x {sol.nullity} shift eigenproblem"}
 
 
 # ------------------------------------------------------------------ SS, TS

@@ -347,8 +347,8 @@ def synthesise(study: Study):
 
     ``[synthesis] mode``: ``enumerate`` (default: :func:`synthesis.enumerate_dyads` of the
     family with its choices), ``complete`` (:func:`synthesis.complete_dyads`: every real
-    solution of the binary link ``family`` = RR, CC, SS or TS at its maximal number of
-    positions) or ``least-squares`` (:func:`synthesis.least_squares_dyads`: RR or CC
+    solution of the binary link ``family`` = RR, CC, SS, TS or CS at its maximal number of
+    positions; CS with its ``fixed_direction``) or ``least-squares`` (:func:`synthesis.least_squares_dyads`: RR or CC
     through more positions, best fit).  An error names the study key at fault (a choice
     the family does not have, a missing pitch, positions the family cannot take)."""
     from synthesis import complete_dyads, least_squares_dyads
@@ -357,14 +357,17 @@ def synthesise(study: Study):
     mode = sec.get("mode", "str", "enumerate", choices=MODES)
     screws = task_screws(study)
     choices = task_choices(study)
-    if mode != "enumerate" and choices:
-        key = next(k for k, (n, _) in CHOICE_KEYS.items() if n in choices)
+    # a complete CS solve takes its cylinder axis direction; nothing else takes a choice
+    allowed = {"fixed_direction"} if mode == "complete" and family.upper() == "CS" else set()
+    if mode != "enumerate" and set(choices) - allowed:
+        key = next(k for k, (n, _) in CHOICE_KEYS.items() if n in set(choices) - allowed)
         raise study.error(f"synthesis.{key}", f"mode {mode!r} has no free parameters (the "
                           "solutions of a binary link at its maximal number of positions are "
-                          "isolated); remove it or use mode = \"enumerate\"")
+                          "isolated; CS takes fixed_direction only); remove it or use "
+                          "mode = \"enumerate\"")
     try:
         if mode == "complete":
-            df = complete_dyads(family, screws)
+            df = complete_dyads(family, screws, **choices)
         elif mode == "least-squares":
             df = least_squares_dyads(family, screws)
         else:

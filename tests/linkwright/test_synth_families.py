@@ -180,3 +180,35 @@ def test_sphere_ended_variants_are_drawn_with_their_centre_on_the_task():
         c = np.array([row.j3_x, row.j3_y, row.j3_z])
         want = np.einsum("pij,j->pi", T[:, :3, :3], c) + T[:, :3, 3]
         assert np.abs(scn.paths["sphere centre"] - want).max() < 1e-9
+
+
+def test_complete_mode_cs_takes_its_cylinder_direction(tmp_path, capsys):
+    """`mode = "complete"` with family CS: every real CS chain through six positions for
+    the study's fixed_direction, as complete_dyads gives them; other choices refused."""
+    import pandas as pd
+    from synthesis import Screw, complete_dyads
+    rng = np.random.default_rng(5)
+    scr = []
+    for _ in range(5):
+        u = rng.normal(size=3)
+        scr.append(Screw(u / np.linalg.norm(u), rng.normal(size=3), rng.uniform(0.4, 1.5),
+                         rng.normal()))
+    d = np.array([0.0, 0.6, 0.8])
+    text = ('[study]\ncommand = "synth"\ntitle = "CS"\n\n[synthesis]\nfamily = "CS"\n'
+            'mode = "complete"\nfixed_direction = [0.0, 0.6, 0.8]\n\n' +
+            "".join(f"[[position]]\naxis = {list(map(float, s.axis))}\n"
+                    f"point = {list(map(float, s.point))}\n"
+                    f"angle_deg = {float(np.degrees(s.angle))!r}\nslide = {float(s.slide)!r}\n\n"
+                    for s in scr))
+    p = tmp_path / "cs.toml"
+    p.write_text(text)
+    assert main(["synth", str(p), "-o", str(tmp_path / "out")]) == 0, capsys.readouterr().err
+    df = pd.read_csv(tmp_path / "out" / "variants.csv")
+    ref = complete_dyads("CS", [Screw.from_matrix(s.matrix()) for s in scr], fixed_direction=d)
+    assert len(df) == len(ref) and len(ref) >= 2 and (df.residual <= 1e-9).all()
+    assert np.allclose(np.sort(df.j2_x.to_numpy()), np.sort(ref.j2_x.to_numpy(float)),
+                       atol=1e-9)
+    q = tmp_path / "bad.toml"
+    q.write_text(text.replace("fixed_direction", "pitch = 0.1\nfixed_direction"))
+    assert main(["synth", str(q), "-o", str(tmp_path / "o2")]) != 0
+    assert "'synthesis.pitch'" in capsys.readouterr().err

@@ -406,21 +406,35 @@ def _check_rotations(task: _Task, name: str = "screws"):
                              "reaches the positions): degenerate task")
 
 
-def _finish(task: _Task, types, pitches, g, cg, w, cw, th, a, ph, b, params) -> BinaryLink:
+def _unfinished(task: _Task, types, pitches, g, cg, w, cw, th, a, ph, b,
+                params) -> BinaryLink:
     """A BinaryLink in user coordinates from normalised directions, points and joint values
-    at positions 2…n (pitches in normalised units)."""
+    at positions 2…n (pitches in normalised units), its residual not yet computed
+    (:func:`_residuals` does that for many links at once)."""
     L, c = task.L, task.c
     G = Line(g, cg * L + c).canonical()
     W = Line(w, cw * L + c).canonical(G)
     z = np.zeros(1)
     pg = np.nan if types[0] == "C" else pitches[0] * L
     pw = np.nan if types[1] == "C" else pitches[1] * L
-    types = "".join(types)
-    link = BinaryLink(types, G, W, float(pg), float(pw), np.r_[z, th], np.r_[z, a * L],
-                      np.r_[z, ph], np.r_[z, b * L], 0.0, dict(params))
-    rot, pos = pose_errors(link.poses(), task.T, task.reach)
-    link.residual = float(max(rot.max(), pos.max()))
-    return link
+    return BinaryLink("".join(types), G, W, float(pg), float(pw), np.r_[z, th],
+                      np.r_[z, a * L], np.r_[z, ph], np.r_[z, b * L], 0.0, dict(params or {}))
+
+
+def _residuals(links, task: _Task):
+    """Set every link's ``residual`` (its largest pose error over the task: rad, or
+    translation / the task's reach), in one batched pose comparison; returns the links."""
+    if links:
+        rot, pos = pose_errors(np.stack([lk.poses() for lk in links]), task.T, task.reach)
+        for lk, r in zip(links, np.maximum(rot.max(-1), pos.max(-1)).tolist()):
+            lk.residual = r
+    return links
+
+
+def _finish(task: _Task, types, pitches, g, cg, w, cw, th, a, ph, b, params) -> BinaryLink:
+    """:func:`_unfinished` with its residual."""
+    return _residuals([_unfinished(task, types, pitches, g, cg, w, cw, th, a, ph, b, params)],
+                      task)[0]
 
 
 def _same(a: BinaryLink, b: BinaryLink, L: float, tol: float = 1e-6) -> bool:

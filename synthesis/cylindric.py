@@ -25,12 +25,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .binary import BinaryLink, _angles, _check_rotations, _same, _system, _task
+from .binary import (BinaryLink, _angles, _check_rotations, _residuals, _same, _system, _task,
+                     _unfinished)
 from .errors import SynthesisError
 from .rmep import solve_bilinear
 from .screw import Line
 from .validate import integer, line as _line, number, screw as _screw, unit, vec3
-from .verify import pose_errors
 
 __all__ = ["rc_links", "cr_links", "fixed_direction_links", "cc_links", "cc_direction_residual",
            "cc_directions"]
@@ -134,27 +134,8 @@ def _direction_links(task, kinds, pitches, g, w, *, fixed_point=None, near_point
         b = x[k:k + m] if kinds[1] == "C" else pitches[1] * ph[n]
         out.append(_unfinished(task, kinds, pitches, g[n], cg, w[n], cw, th[n], a, ph[n], b,
                                params or {}))
-    links = [lk for lk in out if not isinstance(lk, SynthesisError)]
-    if links:
-        # the residuals of _finish, for all links in one pose_errors call
-        rot, pos = pose_errors(np.stack([lk.poses() for lk in links]), task.T, task.reach)
-        for lk, r in zip(links, np.maximum(rot.max(1), pos.max(1)).tolist()):
-            lk.residual = r
+    _residuals([lk for lk in out if not isinstance(lk, SynthesisError)], task)
     return out
-
-
-def _unfinished(task, kinds, pitches, g, cg, w, cw, th, a, ph, b, params) -> BinaryLink:
-    """The link of :func:`synthesis.binary._finish` (user coordinates from normalised
-    directions, points and joint values at positions 2…n, pitches normalised) without its
-    residual, which the caller computes for all links at once."""
-    L, c = task.L, task.c
-    G = Line(g, cg * L + c).canonical()
-    W = Line(w, cw * L + c).canonical(G)
-    z = np.zeros(1)
-    pg = np.nan if kinds[0] == "C" else pitches[0] * L
-    pw = np.nan if kinds[1] == "C" else pitches[1] * L
-    return BinaryLink("".join(kinds), G, W, float(pg), float(pw), np.r_[z, th], np.r_[z, a * L],
-                      np.r_[z, ph], np.r_[z, b * L], 0.0, dict(params))
 
 
 def _types(kind_fixed, kind_moving, pf, pm):

@@ -24,7 +24,8 @@ from __future__ import annotations
 import numpy as np
 
 from .binary import (BinaryLink, _angles, _check_rotations, _cross, _fibonacci_neighbours,
-                     _finish, _local_minima, _perp, _same, _system, _task)
+                     _finish, _local_minima, _perp, _residuals, _same, _system, _task,
+                     _unfinished)
 from .errors import SynthesisError
 from .validate import integer, number, screw as _screw, unit
 
@@ -107,10 +108,12 @@ def helical_links(s12, s13, fixed_pitch: float = 0.0, moving_pitch: float = 0.0,
     g *= np.where(g[:, 2:3] < 0, -1.0, 1.0)
     g = g[~np.any(np.tril(np.abs(g @ g.T) > 1 - 1e-14, -1), 1)]   # starts met at one root
     A, rhs, w, th, ph, (e1, e2, f1, f2), ok = _equations(g, R, t, ("H", "H"), pn)
+    links = [_link(task, g[k], np.linalg.lstsq(A[k], rhs[k], rcond=None)[0], kinds, pn,
+                   (A[k], w[k], th[k], ph[k], e1[k], e2[k], f1[k], f2[k], ok[k]))
+             for k in range(len(g))]
+    _residuals([lk for lk in links if lk is not None], task)
     out: list[BinaryLink] = []
-    for k in range(len(g)):
-        link = _link(task, g[k], np.linalg.lstsq(A[k], rhs[k], rcond=None)[0], kinds, pn,
-                     (A[k], w[k], th[k], ph[k], e1[k], e2[k], f1[k], f2[k], ok[k]))
+    for link in links:
         if link is not None and link.residual <= tol and not any(_same(link, o, task.L) for o in out):
             out.append(link)
     out.sort(key=lambda lk: tuple(np.round(lk.fixed_axis.direction * np.sign(
@@ -119,17 +122,17 @@ def helical_links(s12, s13, fixed_pitch: float = 0.0, moving_pitch: float = 0.0,
 
 
 def _link(task, g, x, kinds, pn, eq):
-    """The BinaryLink of a converged direction ``g`` and axis-point coordinates ``x``
-    (``eq``: that direction's equations, moving direction, angles, bases and validity
-    from :func:`_equations`), or None where the axes are not determined (degenerate
-    equations)."""
+    """The BinaryLink (residual not yet set) of a converged direction ``g`` and axis-point
+    coordinates ``x`` (``eq``: that direction's equations, moving direction, angles, bases
+    and validity from :func:`_equations`), or None where the axes are not determined
+    (degenerate equations)."""
     A, w, th, ph, e1, e2, f1, f2, ok = eq
     s = np.linalg.svd(A, compute_uv=False)
     if not ok or s[-1] < 1e-7 * s[0]:
         return None
     cg = x[0] * e1 + x[1] * e2
     cw = x[2] * f1 + x[3] * f2
-    return _finish(task, kinds, pn, g, cg, w, cw, th, pn[0] * th, ph, pn[1] * ph, {})
+    return _unfinished(task, kinds, pn, g, cg, w, cw, th, pn[0] * th, ph, pn[1] * ph, {})
 
 
 def hh_links_free_pitch(s12, s13, fixed_direction) -> list[BinaryLink]:

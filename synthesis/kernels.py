@@ -24,6 +24,8 @@ import numpy as np
 import numba
 
 _kernel = numba.njit(cache=True, nogil=True, error_model="numpy")
+#: the residuals' call chain, inlined into the search (a call passes ~20 array structs)
+_inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always")
 
 
 # ------------------------------------------------------------------ small linear algebra
@@ -243,7 +245,7 @@ def _hh_equations(g, R, t, pn, A, rhs, w, th, ph, V, Ms):
     return wn, math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2])
 
 
-@_kernel
+@_inline
 def _hh_normal(g, R, t, pn, V, Ms, A, rhs, M, b):
     """The six equations for direction g (A (6, 4), rhs (6,)) and their normal equations
     M = AᵀA + 1e-14 I (4, 4), b = Aᵀ rhs (4,) (scratch as :func:`_scratch`); returns the
@@ -264,7 +266,7 @@ def _hh_normal(g, R, t, pn, V, Ms, A, rhs, M, b):
     return wn > 1e-9 and sgw > 1e-9
 
 
-@_kernel
+@_inline
 def _hh_misfit(g, R, t, pn, f, V, Ms, A, rhs, M, b, x):
     """The six equations' least-squares misfit vector f (6,) for direction g, the points
     solved by normal equations; returns the validity of g."""
@@ -297,7 +299,7 @@ def hh_grid(G, R, t, pn):
     return out
 
 
-@_kernel
+@_inline
 def _hh_residual(z, base, R, t, pn, f, V, Ms, A, rhs, M, b, x):
     """Residual f (6,) at tangent coordinates z (2,) about base = (g0, e1, e2) (3, 3):
     the direction g = normalise(g0 + z₁ e1 + z₂ e2)."""
@@ -339,7 +341,7 @@ def hs_system(g, th, R, t, p):
     return A, rhs
 
 
-@_kernel
+@_inline
 def _hs_residual(z, a, b, R, t, p, f, V, Ms, A, rhs, Q):
     """The nine HS equations' residual f (9,) off the range of their matrix at
     z = (β, θ₂, θ₃, θ₄), the axis direction g = cos β a + sin β b; R (3, 3, 3), t (3, 3)
@@ -431,7 +433,7 @@ def _misfit(M, v, rr):
 _HH, _HS = 0, 1       # the residuals the Levenberg–Marquardt below knows
 
 
-@_kernel
+@_inline
 def _residual(kind, z, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
     """System k's residual f at z: the HH misfit about base P[k] with pitches v, or the HS
     residual on the circle P[0] = (a, b) with pitch v[0] (scratch as :func:`_scratch`)."""
@@ -441,32 +443,39 @@ def _residual(kind, z, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
         _hs_residual(z, P[0, 0], P[0, 1], R, t, v[0], f, V, Ms, A9, rhs9, Q)
 
 
-@_kernel
-def _cost(kind, z, k, P, R, t, v, f, S):
-    """Residual f (r,) of system k at z; returns |f|² (inf where not finite); S the
-    scratch arrays (:func:`_scratch`)."""
-    _residual(kind, z, k, P, R, t, v, f, S[0], S[1], S[2], S[3], S[4], S[5], S[6], S[7],
-              S[8], S[9])
+@_inline
+def _cost(kind, z, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
+    """Residual f (r,) of system k at z; returns |f|² (inf where not finite); scratch as
+    :func:`_scratch`."""
+    _residual(kind, z, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
     cost = 0.0
     for r in range(f.shape[0]):
         cost += f[r] * f[r]
     return cost if math.isfinite(cost) else np.inf
 
 
-@_kernel
-def _jacobian(kind, z, k, P, R, t, v, h, J, fp, fm, zt, S):
-    """Central-difference Jacobian J (r, n) of system k at z; False where not finite."""
-    V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q = S
+@_inline
+def _jacobian(kind, z, f0, k, P, R, t, v, h, J, fp, fm, zt, V, Ms, A6, rhs6, M, b, x, A9,
+              rhs9, Q):
+    """Finite-difference Jacobian J (r, n) of system k at z (f0 its residual there):
+    forward differences for the HH misfit (as MINPACK's lmdif; measured: the same links
+    as central ones on the reference tasks, at half the residuals), central ones for the
+    HS residual (forward ones lost a link there); False where not finite."""
     ok = True
     for i in range(z.shape[0]):
         zt[:] = z
         zt[i] = z[i] + h
         _residual(kind, zt, k, P, R, t, v, fp, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
-        zt[i] = z[i] - h
-        _residual(kind, zt, k, P, R, t, v, fm, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
-        for r in range(fp.shape[0]):
-            J[r, i] = (fp[r] - fm[r]) / (2 * h)
-            ok = ok and math.isfinite(J[r, i])
+        if kind == _HH:
+            for r in range(fp.shape[0]):
+                J[r, i] = (fp[r] - f0[r]) / h
+                ok = ok and math.isfinite(J[r, i])
+        else:
+            zt[i] = z[i] - h
+            _residual(kind, zt, k, P, R, t, v, fm, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
+            for r in range(fp.shape[0]):
+                J[r, i] = (fp[r] - fm[r]) / (2 * h)
+                ok = ok and math.isfinite(J[r, i])
     return ok
 
 
@@ -492,11 +501,12 @@ def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
     zt, za, step, Jtf, diag = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     JtJ = np.empty((n, n))
     hist = np.empty(iters + 1)
-    S = _scratch()
+    V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q = _scratch()
     for k in range(N):
         zk = z[k]
-        cost = _cost(kind, zk, k, P, R, t, v, f, S)
-        if not _jacobian(kind, zk, k, P, R, t, v, h, J, fp, fm, zt, S):
+        cost = _cost(kind, zk, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
+        if not _jacobian(kind, zk, f, k, P, R, t, v, h, J, fp, fm, zt, V, Ms, A6, rhs6, M, b,
+                         x, A9, rhs9, Q):
             cost = np.inf
         lam = 1e-3
         for it in range(iters):
@@ -530,8 +540,9 @@ def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
             for i in range(n):
                 za[i] = zk[i] + (step[i] if math.isfinite(step[i]) else 0.0)
             # the trial's Jacobian only where it is accepted (a rejected step costs one residual)
-            cn = _cost(kind, za, k, P, R, t, v, fn, S)
-            if cn < cost and _jacobian(kind, za, k, P, R, t, v, h, Jn, fp, fm, zt, S):
+            cn = _cost(kind, za, k, P, R, t, v, fn, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
+            if cn < cost and _jacobian(kind, za, fn, k, P, R, t, v, h, Jn, fp, fm, zt, V, Ms, A6,
+                                       rhs6, M, b, x, A9, rhs9, Q):
                 zk[:] = za
                 f[:] = fn
                 J[:, :] = Jn
@@ -550,7 +561,7 @@ def hh_refine(bases, R, t, pn, iters: int = 80):
     R (2, 3, 3), t (2, 3), pn (2,) as :func:`_hh_equations`.  Returns z (N, 2), |f| (N,),
     iterations (N,)."""
     return _levenberg_marquardt(_HH, np.zeros((len(bases), 2)), bases, R, t, pn, 6, iters,
-                                1e-7)
+                                1e-8)
 
 
 def hs_refine(z0, a, b, R, t, p: float, iters: int):

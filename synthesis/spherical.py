@@ -59,7 +59,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .binary import BinaryLink, _cross, _rot, _signed_angle, _task
+from .binary import BinaryLink, _cross, _residuals, _rot, _signed_angle, _task
 from .errors import SynthesisError
 from .screw import Line
 from .validate import array, number, screws as _screws, unit
@@ -429,20 +429,6 @@ def rs_condition(screws, direction, *, frame=None) -> float:
     R, t = task.R, task.t
     _, _, scale = _fourier(lambda u, i: _rs_H(u, R, t), a[None], b[None], _DEG_RS, _K_RS)
     return float(_rs_H(g[None], R, t)[0] / scale[0]) if scale[0] else 0.0
-
-
-def _residual(link, task):
-    """Set the link's ``residual`` (largest pose error over the task); returns the link."""
-    return _residuals([link], task)[0]
-
-
-def _residuals(links, task):
-    """:func:`_residual` of several links of one task, in one batched pose comparison."""
-    if links:
-        rot, pos = pose_errors(np.stack([lk.poses() for lk in links]), task.T, task.reach)
-        for lk, r in zip(links, np.maximum(rot.max(-1), pos.max(-1))):
-            lk.residual = float(r)
-    return links
 
 
 def _inverse(R, t):
@@ -1110,10 +1096,8 @@ def _hs_family(screws, pitch, azimuth, frame, tol, kind):
             link = BinaryLink("SH", Line._exact(g.copy(), Cw), Line._exact(g.copy(),
                               axis.foot_from(Cw)), np.nan, p, z, z.copy(), -ang, -p * ang, 0.0,
                               params, sphere_rotations=np.concatenate([I3, np.swapaxes(S, -1, -2)]))
-        _residual(link, task)
-        if link.residual <= tol:
-            out.append(link)
-    return out
+        out.append(link)
+    return [lk for lk in _residuals(out, task) if lk.residual <= tol]
 
 
 def _hs_links_grid(kind, screws, combos, psis, pitch, frame):

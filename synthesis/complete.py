@@ -109,6 +109,16 @@ def _row(chain, variant, order, types, lines, residual, joint_values=None, slide
     return row
 
 
+def _verified(rows, residuals, what: str, unit: str):
+    """Set each row's engine ``residual``; a row missing the positions by more than 1e-9
+    gets its reason (the construction lost its accuracy)."""
+    for row, rv in zip(rows, residuals):
+        row["residual"] = float(rv)
+        if rv > 1e-9:
+            row["reason"] = (f"ill-conditioned: driven by the engine the {what} misses the "
+                             f"positions by {rv:.1e} ({unit})")
+
+
 def _table(rows, attrs) -> pd.DataFrame:
     df = pd.DataFrame(rows)
     extra = [c for c in df.columns if c not in DYAD_COLUMNS]
@@ -289,12 +299,8 @@ def _cs_rows(scr, order, d):
                          joint_values=theta[:, None], slides=slide[:, None],
                          radius=float(np.sqrt(r2) * L)))
     if chains:
-        r = verify_open_chains(chains, T, task.reach)
-        for row, rv in zip(rows, r):
-            row["residual"] = float(rv)
-            if rv > 1e-9:
-                row["reason"] = (f"ill-conditioned: driven by the engine the chain misses the "
-                                 f"positions by {rv:.1e} (rad, or relative to the task's reach)")
+        _verified(rows, verify_open_chains(chains, T, task.reach), "chain",
+                  "rad, or relative to the task's reach")
     return rows, {"complex_count": int(good.sum()), "real_count": int(use.sum()),
                   "rejected": rejected, "at_infinity": int(sol.at_infinity.sum()),
                   "failed_paths": int((~good & ~sol.at_infinity).sum()),
@@ -366,12 +372,8 @@ def _ss_rows(scr, order, name):
                          [g1, Line._exact(np.full(3, np.nan), Qc[v])], np.nan,
                          joint_values=jv, radius=float(np.linalg.norm(Qc[v] - P[v]))))
     if chains:
-        r = verify_points(chains, T, task.reach)
-        for row, rv in zip(rows, r):
-            row["residual"] = float(rv)
-            if rv > 1e-9:
-                row["reason"] = (f"ill-conditioned: driven by the engine the link misses the "
-                                 f"positions by {rv:.1e} (relative to the task's reach)")
+        _verified(rows, verify_points(chains, T, task.reach), "link",
+                  "relative to the task's reach")
     return rows, {"complex_count": int(good.sum()), "real_count": int((good & real).sum()),
                   "rejected": rejected, "at_infinity": int(inf.sum()),
                   "failed_paths": int((~good).sum()),

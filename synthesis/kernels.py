@@ -9,7 +9,8 @@ here, compiled, one small system after another:
   direction, the HS link's nine for an elevation and three helical angles), each with
   its linear unknowns (the axes' points, the sphere centre) projected out;
 * the misfit on a grid of directions (HH) or of (elevation, angles) (HS);
-* one Levenberg–Marquardt for any of the residuals (central-difference Jacobian).
+* one Levenberg–Marquardt for any of the residuals (finite-difference Jacobian: forward
+  for HH, central for HS), its residual's call chain inlined.
 
 numba compiles them on first use (``cache=True``: once per installation, then loaded
 from the cache); :mod:`synthesis.helical` and :mod:`synthesis.spherical` import this

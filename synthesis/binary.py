@@ -256,13 +256,14 @@ def _rot(u, ang):
 
 
 def _screw_matrix(u, c, ang, slide):
-    """4x4 screws ``(..., 4, 4)``: rotation ``ang`` about the line (u, c), then ``slide``
-    along u (broadcast over ``ang`` and ``slide``)."""
+    """4x4 screws ``(..., 4, 4)``: rotation ``ang`` (rad) about the lines (u, c)
+    ``(..., 3)``, then ``slide`` (length) along u (all broadcast)."""
+    u, c = np.asarray(u, float), np.asarray(c, float)
     ang, slide = np.asarray(ang, float), np.asarray(slide, float)
     R = _rot(u, ang)
     T = np.zeros(R.shape[:-2] + (4, 4))
     T[..., :3, :3] = R
-    T[..., :3, 3] = c - np.einsum("...ij,j->...i", R, c) + slide[..., None] * u
+    T[..., :3, 3] = c - np.einsum("...ij,...j->...i", R, c) + slide[..., None] * u
     T[..., 3, 3] = 1.0
     return T
 

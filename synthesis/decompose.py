@@ -52,11 +52,11 @@ import itertools
 import numpy as np
 import pandas as pd
 
-from .binary import BinaryLink, _fibonacci
+from .binary import BinaryLink, _fibonacci, _screw_matrix
 from .errors import SynthesisError
 from .screw import Line, Screw
 from .spherical import task_frame
-from .transition import TRANSITION_POSITIONS, _screw_matrix, transition_joints
+from .transition import TRANSITION_POSITIONS, transition_joints
 from .twopos import two_position_links
 from .validate import array, task_scale
 from .verify import verify_driven

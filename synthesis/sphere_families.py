@@ -196,6 +196,22 @@ def _main_links(main, screws, T, axes, points, combos, psis, ph, frame) -> _Main
 
 
 
+def _joint_columns(family, geometry, ph) -> dict:
+    """The table's joint columns ``j{k}_type, j{k}_ux … j{k}_z, j{k}_pitch`` of R rows from
+    their joints' (direction, point) ``geometry (R, 3, 2, 3)`` (NaN where absent) and the
+    helical pitch ``ph``."""
+    R = len(geometry)
+    out = {}
+    for k, t in enumerate(family):
+        out[f"j{k + 1}_type"] = np.full(R, t, dtype=object)
+        for i, c in enumerate(("ux", "uy", "uz")):
+            out[f"j{k + 1}_{c}"] = geometry[:, k, 0, i]
+        for i, c in enumerate("xyz"):
+            out[f"j{k + 1}_{c}"] = geometry[:, k, 1, i]
+        out[f"j{k + 1}_pitch"] = np.full(R, {"R": 0.0, "P": np.inf, "H": ph}.get(t, np.nan))
+    return out
+
+
 def _transition_axes(x, Cs, Pm, rest, reach):
     """The transition joint of every (main link, transition position) variant, in one pass.
 
@@ -411,14 +427,7 @@ def _columns(family, T, reach, ph, parts) -> dict:
         chains = [(types, [Line._exact(g[0, 0], g[0, 1]), Line._exact(g[1, 0], g[1, 1])], v,
                    g[2, 1], pitches) for g, v in zip(geometry[r], jv[r])]
         residual[r] = verify_points(chains, T, reach)
-    joints = {}
-    for k, t in enumerate(family):
-        joints[f"j{k + 1}_type"] = np.full(R, t, dtype=object)
-        for i, c in enumerate(("ux", "uy", "uz")):
-            joints[f"j{k + 1}_{c}"] = geometry[:, k, 0, i]
-        for i, c in enumerate("xyz"):
-            joints[f"j{k + 1}_{c}"] = geometry[:, k, 1, i]
-        joints[f"j{k + 1}_pitch"] = np.full(R, {"R": 0.0, "P": np.inf, "H": ph}.get(t, np.nan))
+    joints = _joint_columns(family, geometry, ph)
     head = {"family": np.full(R, family, dtype=object), "variant": np.zeros(R, int),
             "order": cat("order")}
     tail = {"arrangement": rep("name"), "transition": rep("transition"),

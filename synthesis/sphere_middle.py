@@ -352,6 +352,7 @@ def _columns(family, T, reach, ph, parts) -> dict:
     which root of R carrying H) and per position ``q{k}_pos{p}, d{k}_pos{p}`` (k = 1–3);
     ``member`` and ``root`` are integer columns when every row is regular.
     """
+    from .sphere_families import _joint_columns
     N = T.shape[0]
     y_kind = family[2]
     cat = lambda key: np.concatenate([q[key] for q in parts])
@@ -375,13 +376,7 @@ def _columns(family, T, reach, ph, parts) -> dict:
     cols = {"family": np.full(R, family, dtype=object), "variant": np.zeros(R, int),
             "order": cat("order"), "arrangement": names,
             "transition": np.full(R, "R" + y_kind, dtype=object)}
-    for k, t in enumerate(family):
-        cols[f"j{k + 1}_type"] = np.full(R, t, dtype=object)
-        for i, c in enumerate(("ux", "uy", "uz")):
-            cols[f"j{k + 1}_{c}"] = geometry[:, k, 0, i]
-        for i, c in enumerate("xyz"):
-            cols[f"j{k + 1}_{c}"] = geometry[:, k, 1, i]
-        cols[f"j{k + 1}_pitch"] = np.full(R, {"R": 0.0, "P": np.inf, "H": ph}.get(t, np.nan))
+    cols.update(_joint_columns(family, geometry, ph))
     cols.update(residual=residual, reason=cat("reason"), main_link=rep("main"),
                 main_positions=cat("main_positions"),
                 transition_position=cat("transition_position"), azimuth=cat("azimuth"))

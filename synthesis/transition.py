@@ -39,6 +39,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .binary import _screw_matrix
 from .dualquat import dq_from_matrix, dq_mul, qmul
 from .errors import SynthesisError
 from .screw import Line
@@ -120,23 +121,6 @@ def _screw_dq(u, m, angle, slide):
     out[..., 4:5] = -h * s
     out[..., 5:] = h * c * u + s * m
     return out
-
-
-def _screw_matrix(u, p, angle, slide):
-    """4x4 screws ``(..., 4, 4)``: rotation ``angle`` (rad) about the lines (u, p)
-    ``(..., 3)``, then ``slide`` (length) along u (broadcast)."""
-    angle, slide = np.asarray(angle, float), np.asarray(slide, float)
-    c, s = np.cos(angle)[..., None, None], np.sin(angle)[..., None, None]
-    K = np.zeros(u.shape[:-1] + (3, 3))
-    K[..., 0, 1], K[..., 0, 2] = -u[..., 2], u[..., 1]
-    K[..., 1, 0], K[..., 1, 2] = u[..., 2], -u[..., 0]
-    K[..., 2, 0], K[..., 2, 1] = -u[..., 1], u[..., 0]
-    R = np.eye(3) + s * K + (1 - c) * (K @ K)
-    T = np.zeros(R.shape[:-2] + (4, 4))
-    T[..., :3, :3] = R
-    T[..., :3, 3] = p - (R @ p[..., None])[..., 0] + slide[..., None] * u
-    T[..., 3, 3] = 1.0
-    return T
 
 
 def _screw_of(E):

@@ -82,16 +82,15 @@ def _signed_angle3(a, b, u):
 
 
 @_kernel
-def _spd_solve(M, v, x):
-    """x = M⁻¹ v for a small symmetric positive definite M (Cholesky, M overwritten by its
-    factor, v kept).  False (x zero) where a pivot is not positive or not finite."""
+def _cholesky(M):
+    """M = L Lᵀ in place (the lower triangle of a small symmetric positive definite M read,
+    overwritten by L); False where a pivot is not positive or not finite."""
     n = M.shape[0]
     for j in range(n):
         d = M[j, j]
         for k in range(j):
             d -= M[j, k] * M[j, k]
         if not d > 0.0 or not math.isfinite(d):
-            x[:] = 0.0
             return False
         d = math.sqrt(d)
         M[j, j] = d
@@ -100,14 +99,30 @@ def _spd_solve(M, v, x):
             for k in range(j):
                 s -= M[i, k] * M[j, k]
             M[i, j] = s / d
-    for i in range(n):
+    return True
+
+
+@_kernel
+def _forward(L, v, y):
+    """y = L⁻¹ v for a lower triangular L (y may be v)."""
+    for i in range(L.shape[0]):
         s = v[i]
         for k in range(i):
-            s -= M[i, k] * x[k]
-        x[i] = s / M[i, i]
-    for i in range(n - 1, -1, -1):
+            s -= L[i, k] * y[k]
+        y[i] = s / L[i, i]
+
+
+@_kernel
+def _spd_solve(M, v, x):
+    """x = M⁻¹ v for a small symmetric positive definite M (Cholesky, M overwritten by its
+    factor, v kept).  False (x zero) where a pivot is not positive or not finite."""
+    if not _cholesky(M):
+        x[:] = 0.0
+        return False
+    _forward(M, v, x)
+    for i in range(M.shape[0] - 1, -1, -1):
         s = x[i]
-        for k in range(i + 1, n):
+        for k in range(i + 1, M.shape[0]):
             s -= M[k, i] * x[k]
         x[i] = s / M[i, i]
     return True
@@ -404,28 +419,14 @@ def hs_grid(a, b, R, t, p, nb, nt):
 
 @_kernel
 def _misfit(M, v, rr):
-    """sqrt(|rr − vᵀ M⁻¹ v|) for the normal equations M (5, 5) (lower triangle read,
-    overwritten by its Cholesky factor L) and v (5,) (overwritten by L⁻¹ v): the
-    least-squares misfit, as vᵀ M⁻¹ v = |L⁻¹ v|².  NaN where M is not positive definite."""
-    n = M.shape[0]
+    """sqrt(|rr − vᵀ M⁻¹ v|) for the normal equations M (lower triangle read, overwritten by
+    its Cholesky factor L) and v (overwritten by L⁻¹ v): the least-squares misfit, as
+    vᵀ M⁻¹ v = |L⁻¹ v|².  NaN where M is not positive definite."""
+    if not _cholesky(M):
+        return np.nan
+    _forward(M, v, v)
     s = rr
-    for j in range(n):
-        d = M[j, j]
-        for k in range(j):
-            d -= M[j, k] * M[j, k]
-        if not d > 0.0:
-            return np.nan
-        d = math.sqrt(d)
-        M[j, j] = d
-        for i in range(j + 1, n):
-            e = M[i, j]
-            for k in range(j):
-                e -= M[i, k] * M[j, k]
-            M[i, j] = e / d
-        e = v[j]
-        for k in range(j):
-            e -= M[j, k] * v[k]
-        v[j] = e / d
+    for j in range(v.shape[0]):
         s -= v[j] * v[j]
     return math.sqrt(abs(s))
 

@@ -30,14 +30,14 @@ _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always
 
 
 # ------------------------------------------------------------------ small linear algebra
-@_kernel
+@_inline
 def _cross3(a, b, out):
     out[0] = a[1] * b[2] - a[2] * b[1]
     out[1] = a[2] * b[0] - a[0] * b[2]
     out[2] = a[0] * b[1] - a[1] * b[0]
 
 
-@_kernel
+@_inline
 def _perp3(u, e1, e2):
     """Two unit vectors completing unit u to a right-handed frame (as ``binary._perp``)."""
     if abs(u[0]) < 0.9:
@@ -56,7 +56,12 @@ def _perp3(u, e1, e2):
 @_kernel
 def _rot3(u, ang, out):
     """Rotation about unit u by ang (Rodrigues), as ``binary._rot``."""
-    c, s = math.cos(ang), math.sin(ang)
+    _rot3cs(u, math.cos(ang), math.sin(ang), out)
+
+
+@_inline
+def _rot3cs(u, c, s, out):
+    """Rotation about unit u by the angle of cosine c and sine s."""
     C = 1.0 - c
     out[0, 0] = 1.0 + C * (-u[2] * u[2] - u[1] * u[1])
     out[0, 1] = -s * u[2] + C * u[0] * u[1]
@@ -69,19 +74,25 @@ def _rot3(u, ang, out):
     out[2, 2] = 1.0 + C * (-u[1] * u[1] - u[0] * u[0])
 
 
-@_kernel
-def _signed_angle3(a, b, u):
-    """Angle about u from a to b (their components ⊥ u), as ``binary._signed_angle``."""
+@_inline
+def _signed_angle3(a, b, u, out):
+    """Angle about u from a to b (their components ⊥ u), as ``binary._signed_angle``, and
+    that rotation about u in out (3, 3), its cosine and sine taken from the two components
+    (no trigonometric call; the identity where a or b is parallel to u)."""
     cx = a[1] * b[2] - a[2] * b[1]
     cy = a[2] * b[0] - a[0] * b[2]
     cz = a[0] * b[1] - a[1] * b[0]
     ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
     au = a[0] * u[0] + a[1] * u[1] + a[2] * u[2]
     bu = b[0] * u[0] + b[1] * u[1] + b[2] * u[2]
-    return math.atan2(u[0] * cx + u[1] * cy + u[2] * cz, ab - au * bu)
+    y, x = u[0] * cx + u[1] * cy + u[2] * cz, ab - au * bu
+    r = math.sqrt(x * x + y * y)
+    c, s = (x / r, y / r) if r > 0.0 else (1.0, 0.0)
+    _rot3cs(u, c, s, out)
+    return math.atan2(y, x)
 
 
-@_kernel
+@_inline
 def _cholesky(M):
     """M = L Lᵀ in place (the lower triangle of a small symmetric positive definite M read,
     overwritten by L); False where a pivot is not positive or not finite."""
@@ -102,7 +113,7 @@ def _cholesky(M):
     return True
 
 
-@_kernel
+@_inline
 def _forward(L, v, y):
     """y = L⁻¹ v for a lower triangular L (y may be v)."""
     for i in range(L.shape[0]):
@@ -206,7 +217,6 @@ def _scratch():
 
 
 # ------------------------------------------------------------------ HH, RH, HR links
-@_kernel
 def _hh_equations(g, R, t, pn, A, rhs, w, th, ph, V, Ms):
     """A helical link's translation equations for the fixed-axis direction g (3,) through
     the rotations R (2, 3, 3) and translations t (2, 3) of positions 2, 3, pitches pn (2,)
@@ -236,15 +246,13 @@ def _hh_equations(g, R, t, pn, A, rhs, w, th, ph, V, Ms):
     for m in range(2):
         for i in range(3):
             Rw[i] = R[m, i, 0] * w[0] + R[m, i, 1] * w[1] + R[m, i, 2] * w[2]
-        th[m] = _signed_angle3(w, Rw, g)
-        _rot3(g, th[m], Gm)
+        th[m] = _signed_angle3(w, Rw, g, Gm)
         for i in range(3):
             for j in range(3):
                 M[i, j] = Gm[0, i] * R[m, 0, j] + Gm[1, i] * R[m, 1, j] + Gm[2, i] * R[m, 2, j]
         for i in range(3):
             Mv[i] = M[i, 0] * v[0] + M[i, 1] * v[1] + M[i, 2] * v[2]
-        ph[m] = _signed_angle3(v, Mv, w)
-        _rot3(w, ph[m], Wm)
+        ph[m] = _signed_angle3(v, Mv, w, Wm)
         for i in range(3):
             A[3 * m + i, 0] = e1[i] - (Gm[i, 0] * e1[0] + Gm[i, 1] * e1[1] + Gm[i, 2] * e1[2])
             A[3 * m + i, 1] = e2[i] - (Gm[i, 0] * e2[0] + Gm[i, 1] * e2[1] + Gm[i, 2] * e2[2])
@@ -261,12 +269,16 @@ def _hh_equations(g, R, t, pn, A, rhs, w, th, ph, V, Ms):
     return wn, math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2])
 
 
+#: compiled twice from one source: inlined into the grid, where it is nearly all the work
+#: (2× faster, measured), and called from the Levenberg–Marquardt, whose compile time an
+#: inlined copy at each of its call sites would triple (for no measured gain)
+_hh_equations_inlined = _inline(_hh_equations)
+_hh_equations = _kernel(_hh_equations)
+
+
 @_inline
-def _hh_normal(g, R, t, pn, V, Ms, A, rhs, M, b):
-    """The six equations for direction g (A (6, 4), rhs (6,)) and their normal equations
-    M = AᵀA + 1e-14 I (4, 4), b = Aᵀ rhs (4,) (scratch as :func:`_scratch`); returns the
-    validity of g."""
-    wn, sgw = _hh_equations(g, R, t, pn, A, rhs, V[10], V[11], V[12], V, Ms)
+def _normal6(A, rhs, M, b):
+    """Normal equations M = AᵀA + 1e-14 I (4, 4), b = Aᵀ rhs (4,) of A (6, 4), rhs (6,)."""
     for i in range(4):
         for j in range(i + 1):
             s = 0.0
@@ -279,6 +291,14 @@ def _hh_normal(g, R, t, pn, V, Ms, A, rhs, M, b):
         for r in range(6):
             s += A[r, i] * rhs[r]
         b[i] = s
+
+
+@_inline
+def _hh_normal(g, R, t, pn, V, Ms, A, rhs, M, b):
+    """The six equations for direction g (A (6, 4), rhs (6,)) and their normal equations
+    (:func:`_normal6`) (scratch as :func:`_scratch`); returns the validity of g."""
+    wn, sgw = _hh_equations(g, R, t, pn, A, rhs, V[10], V[11], V[12], V, Ms)
+    _normal6(A, rhs, M, b)
     return wn > 1e-9 and sgw > 1e-9
 
 
@@ -305,7 +325,9 @@ def hh_grid(G, R, t, pn):
     out = np.empty(n)
     V, Ms, A, rhs, M, b, _, _, _, _ = _scratch()
     for k in range(n):
-        if _hh_normal(G[k], R, t, pn, V, Ms, A, rhs, M, b):
+        wn, sgw = _hh_equations_inlined(G[k], R, t, pn, A, rhs, V[10], V[11], V[12], V, Ms)
+        if wn > 1e-9 and sgw > 1e-9:
+            _normal6(A, rhs, M, b)
             rr = 0.0
             for r in range(6):
                 rr += rhs[r] * rhs[r]
@@ -417,7 +439,7 @@ def hs_grid(a, b, R, t, p, nb, nt):
     return f
 
 
-@_kernel
+@_inline
 def _misfit(M, v, rr):
     """sqrt(|rr − vᵀ M⁻¹ v|) for the normal equations M (lower triangle read, overwritten by
     its Cholesky factor L) and v (overwritten by L⁻¹ v): the least-squares misfit, as
@@ -457,28 +479,30 @@ def _cost(kind, z, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
 
 
 @_inline
-def _jacobian(kind, z, f0, k, P, R, t, v, h, J, fp, fm, zt, V, Ms, A6, rhs6, M, b, x, A9,
-              rhs9, Q):
+def _jacobian(kind, z, f0, k, P, R, t, v, h, J, fp, zt, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
     """Finite-difference Jacobian J (r, n) of system k at z (f0 its residual there):
     forward differences for the HH misfit (as MINPACK's lmdif; measured: the same links
     as central ones on the reference tasks, at half the residuals), central ones for the
-    HS residual (forward ones lost a link there); False where not finite."""
-    ok = True
-    for i in range(z.shape[0]):
+    HS residual (forward ones lost a link there); False where not finite.  The residual
+    is called from one place (each call site is a copy of it, inlined)."""
+    n = z.shape[0]
+    for e in range(n if kind == _HH else 2 * n):
+        i = e % n
         zt[:] = z
-        zt[i] = z[i] + h
+        zt[i] = z[i] + h if e < n else z[i] - h
         _residual(kind, zt, k, P, R, t, v, fp, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
-        if kind == _HH:
-            for r in range(fp.shape[0]):
+        for r in range(fp.shape[0]):
+            if kind == _HH:
                 J[r, i] = (fp[r] - f0[r]) / h
-                ok = ok and math.isfinite(J[r, i])
-        else:
-            zt[i] = z[i] - h
-            _residual(kind, zt, k, P, R, t, v, fm, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
-            for r in range(fp.shape[0]):
-                J[r, i] = (fp[r] - fm[r]) / (2 * h)
-                ok = ok and math.isfinite(J[r, i])
-    return ok
+            elif e < n:
+                J[r, i] = fp[r]
+            else:
+                J[r, i] = (J[r, i] - fp[r]) / (2 * h)
+    for r in range(J.shape[0]):
+        for i in range(n):
+            if not math.isfinite(J[r, i]):
+                return False
+    return True
 
 
 @_kernel
@@ -486,19 +510,21 @@ def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
     """Levenberg–Marquardt for many independent small systems, one after another.
 
     System k's residual (r,) at z (n,) is ``_residual(kind, z, k, P, R, t, v, f)``.  Each
-    system stops when its residual vanishes (cost ≤ 1e-30), when its damping runs away
-    (≥ 1e12), or when it is stuck away from a zero: stationary (the gradient Jᵀf below
-    1e-6 of |J| |f|: f orthogonal to the Jacobian's range, which a system approaching a
-    zero never is) or its cost lowered by less than 0.1 % over 10 iterations (a system in
-    a zero's basin loses orders of magnitude an iteration).  Damping starts at 1e-3,
-    divided by 5 on an accepted step and multiplied by 8 on a rejected one.
+    system stops when its residual vanishes (cost ≤ 1e-30, or ≤ 1e-26 and a step fails to
+    lower it: round-off), when its damping runs away (≥ 1e12), or when it is stuck away
+    from a zero: stationary (the gradient Jᵀf below 1e-6 of |J| |f|: f orthogonal to the
+    Jacobian's range, which a system approaching a zero never is) or its cost lowered by
+    less than 0.1 % over 10 iterations (a system in a zero's basin loses orders of
+    magnitude an iteration).  Damping starts at 1e-3, divided by 5 on an accepted step
+    and multiplied by 8 on a rejected one.  The start is evaluated as the first trial
+    point, so that the residual and the Jacobian are each called from one place.
 
     Returns the final z (N, n), |f| (N,) and the iterations taken (N,)."""
     N, n = z0.shape
     z = z0.copy()
     res = np.empty(N)
     its = np.zeros(N, np.int64)
-    f, fn, fp, fm = np.empty(r), np.empty(r), np.empty(r), np.empty(r)
+    f, fn, fp = np.empty(r), np.empty(r), np.empty(r)
     J, Jn = np.empty((r, n)), np.empty((r, n))
     zt, za, step, Jtf, diag = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     JtJ = np.empty((n, n))
@@ -506,12 +532,28 @@ def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
     V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q = _scratch()
     for k in range(N):
         zk = z[k]
-        cost = _cost(kind, zk, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
-        if not _jacobian(kind, zk, f, k, P, R, t, v, h, J, fp, fm, zt, V, Ms, A6, rhs6, M, b,
-                         x, A9, rhs9, Q):
-            cost = np.inf
+        za[:] = zk
+        cost = np.inf
         lam = 1e-3
-        for it in range(iters):
+        it = -1                                   # −1: the start, evaluated as a trial
+        while True:
+            cn = _cost(kind, za, k, P, R, t, v, fn, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
+            # the trial's Jacobian only where it is accepted (a rejected step costs one residual)
+            if (it < 0 or cn < cost) and _jacobian(kind, za, fn, k, P, R, t, v, h, Jn, fp, zt,
+                                                   V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
+                zk[:] = za
+                f[:] = fn
+                J[:, :] = Jn
+                cost = cn
+                if it >= 0:
+                    lam = max(lam / 5, 1e-12)
+            elif it >= 0:
+                if cost <= 1e-26:
+                    break                  # at round-off: a rejected step will not lower it
+                lam *= 8
+            it += 1
+            if it >= iters:
+                break
             hist[it] = cost
             if not (math.isfinite(cost) and cost > 1e-30 and lam < 1e12):
                 break
@@ -541,17 +583,6 @@ def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
                 step[:] = 0.0
             for i in range(n):
                 za[i] = zk[i] + (step[i] if math.isfinite(step[i]) else 0.0)
-            # the trial's Jacobian only where it is accepted (a rejected step costs one residual)
-            cn = _cost(kind, za, k, P, R, t, v, fn, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
-            if cn < cost and _jacobian(kind, za, fn, k, P, R, t, v, h, Jn, fp, fm, zt, V, Ms, A6,
-                                       rhs6, M, b, x, A9, rhs9, Q):
-                zk[:] = za
-                f[:] = fn
-                J[:, :] = Jn
-                cost = cn
-                lam = max(lam / 5, 1e-12)
-            else:
-                lam *= 8
         res[k] = math.sqrt(cost)
     return z, res, its
 

@@ -53,7 +53,7 @@ def _perp3(u, e1, e2):
     _cross3(u, e1, e2)
 
 
-@_kernel
+@_inline
 def _rot3(u, ang, out):
     """Rotation about unit u by ang (Rodrigues), as ``binary._rot``."""
     _rot3cs(u, math.cos(ang), math.sin(ang), out)
@@ -351,7 +351,7 @@ def _hh_residual(z, base, R, t, pn, f, V, Ms, A, rhs, M, b, x):
 
 
 # ------------------------------------------------------------------ HS links
-@_kernel
+@_inline
 def _hs_rows(g, th, R, t, p, A, rhs, V, G):
     """Position j's three HS translation equations ``(R_j − G_j) C + (G_j − I) c = p θ g
     − t_j`` for the axis direction g (3,) and helical angle θ: A (3, 5) (sphere centre C,
@@ -369,13 +369,16 @@ def _hs_rows(g, th, R, t, p, A, rhs, V, G):
 
 
 @_kernel
-def hs_system(g, th, R, t, p):
-    """The nine HS equations for one axis direction g (3,) and angles θ (3,): A (9, 5),
-    rhs (9,) (R (3, 3, 3), t (3, 3), pitch p)."""
-    A, rhs = np.empty((9, 5)), np.empty(9)
+def hs_systems(g, th, R, t, p):
+    """The nine HS equations for each axis direction g (M, 3) and angles θ (M, 3):
+    A (M, 9, 5), rhs (M, 9) (R (3, 3, 3), t (3, 3), pitch p)."""
+    m = g.shape[0]
+    A, rhs = np.empty((m, 9, 5)), np.empty((m, 9))
     V, G = np.empty((2, 3)), np.empty((3, 3))
-    for j in range(3):
-        _hs_rows(g, th[j], R[j], t[j], p, A[3 * j:3 * j + 3], rhs[3 * j:3 * j + 3], V, G)
+    for k in range(m):
+        for j in range(3):
+            _hs_rows(g[k], th[k, j], R[j], t[j], p, A[k, 3 * j:3 * j + 3],
+                     rhs[k, 3 * j:3 * j + 3], V, G)
     return A, rhs
 
 
@@ -437,6 +440,34 @@ def hs_grid(a, b, R, t, p, nb, nt):
                         v[u] = sv[u] + Atr[2, ib, i4, u]
                     f[ib, i2, i3, i4] = _misfit(M, v, sr + rtr[2, ib, i4])
     return f
+
+
+@_kernel
+def hs_grid_minima(f):
+    """Mask (nb, nt, nt, nt) of the local minima of the HS grid misfit f (from
+    :func:`hs_grid`): no larger than any of its eight neighbours (so never where f or a
+    neighbour is NaN), β wrapping to β ± π with θ → −θ (the same axis reversed; the θ
+    grid is symmetric), θ not wrapping."""
+    nb, nt = f.shape[0], f.shape[1]
+    out = np.zeros(f.shape, np.bool_)
+    for ib in range(nb):
+        for i2 in range(nt):
+            for i3 in range(nt):
+                for i4 in range(nt):
+                    v = f[ib, i2, i3, i4]
+                    lo = f[ib - 1, i2, i3, i4] if ib > 0 else \
+                        f[nb - 1, nt - 1 - i2, nt - 1 - i3, nt - 1 - i4]
+                    hi = f[ib + 1, i2, i3, i4] if ib < nb - 1 else \
+                        f[0, nt - 1 - i2, nt - 1 - i3, nt - 1 - i4]
+                    ok = v <= lo and v <= hi                # False at NaN, either side
+                    ok = ok and (i2 == 0 or v <= f[ib, i2 - 1, i3, i4])
+                    ok = ok and (i2 == nt - 1 or v <= f[ib, i2 + 1, i3, i4])
+                    ok = ok and (i3 == 0 or v <= f[ib, i2, i3 - 1, i4])
+                    ok = ok and (i3 == nt - 1 or v <= f[ib, i2, i3 + 1, i4])
+                    ok = ok and (i4 == 0 or v <= f[ib, i2, i3, i4 - 1])
+                    ok = ok and (i4 == nt - 1 or v <= f[ib, i2, i3, i4 + 1])
+                    out[ib, i2, i3, i4] = ok
+    return out
 
 
 @_inline

@@ -403,16 +403,6 @@ def _rs_batch(R, t, A, B, sub, tol_rank=1e-10):
     return circle[ok], bt[ok], g[ok], C[ok], O[ok], th[ok], S[ok], scale
 
 
-def _rs_core(R, t, a, b):
-    """RS links (normalised) of one task on the great circle (a, b): list of (β, g, C, O,
-    θ (3,), S (3, 3, 3)) (:func:`_rs_batch`); a condition vanishing on the whole circle
-    raises."""
-    circle, *sol, scale = _rs_batch(R[None], t[None], a[None], b[None], np.zeros(1, int))
-    if scale[0] == 0:
-        raise SynthesisError(_RS_DEGENERATE)
-    return list(zip(*sol))
-
-
 _RS_DEGENERATE = ("screws: degenerate: the circle condition vanishes on the whole great circle "
                   "of this azimuth (every direction admissible?)")
 
@@ -1004,51 +994,37 @@ _HS_GRIDS = ((24, 10), (36, 10))
 def _hs_grid_starts(R, t, a, b, p, nb, nt):
     """Local minima (β, θ₂, θ₃, θ₄) (M, 4) of the variable-projection misfit on a grid of
     ``nb`` elevations β ∈ (0, π) and ``nt`` angles per position in (−π, π)."""
-    from .kernels import hs_grid
-    f = hs_grid(a, b, R, t, p, nb, nt)
-    # neighbours; β wraps to β ± π with θ → −θ (the same axis, reversed)
-    P = np.concatenate([f[-1:, ::-1, ::-1, ::-1], f, f[:1, ::-1, ::-1, ::-1]], 0)
-    P = np.pad(P, [(0, 0), (1, 1), (1, 1), (1, 1)], constant_values=np.inf)
-    core = P[1:-1, 1:-1, 1:-1, 1:-1]
-    ok = np.ones(f.shape, bool)
-    for ax in range(4):
-        for sh in (-1, 1):
-            sl = [slice(1, -1)] * 4
-            sl[ax] = slice(1 + sh, P.shape[ax] - 1 + sh)
-            ok &= core <= P[tuple(sl)]
-    ib, i2, i3, i4 = np.nonzero(ok)
+    from .kernels import hs_grid, hs_grid_minima
+    ib, i2, i3, i4 = np.nonzero(hs_grid_minima(hs_grid(a, b, R, t, p, nb, nt)))
     bt = (np.arange(nb) + 0.5) * np.pi / nb
     tg = -np.pi + (np.arange(nt) + 0.5) * 2 * np.pi / nt              # symmetric grid
     return np.stack([bt[ib], tg[i2], tg[i3], tg[i4]], -1)
 
 
-def _hs_core(R, t, a, b, p, steps: int = 3):
+def _hs_core(R, t, a, b, p, z, steps: int = 3):
     """HS links (normalised) on the circle (a, b) with pitch p ≠ 0.  Starting points: the
-    RS links of the circle (exact, pitch 0) continued to pitch p in ``steps`` steps, and
-    the local minima of the variable-projection misfit on the grids ``_HS_GRIDS`` over
-    the elevation β and the three helical angles; all refined by Levenberg–Marquardt
-    (compiled: :mod:`synthesis.kernels`).  Returns (β, g, C, c, θ)."""
+    RS links of the circle z (M, 4) = (β, θ₂, θ₃, θ₄) (exact, pitch 0) continued to pitch
+    p in ``steps`` steps, and the local minima of the variable-projection misfit on the
+    grids ``_HS_GRIDS`` over the elevation β and the three helical angles; all refined by
+    Levenberg–Marquardt (compiled: :mod:`synthesis.kernels`; R (3, 3, 3), t (3, 3)
+    C-contiguous).  Returns (β, g, C, c, θ)."""
     from .binary import _perp
-    from .kernels import hs_refine, hs_system
-    R, t = np.ascontiguousarray(R), np.ascontiguousarray(t)
-    z = np.array([[beta, *th] for beta, _, _, _, th, _ in _rs_core(R, t, a, b)]).reshape(-1, 4)
+    from .kernels import hs_refine, hs_systems
     for k in range(1, steps + 1):
         z, _, _ = hs_refine(z, a, b, R, t, p * k / steps, 10)
     z0 = np.concatenate([z] + [_hs_grid_starts(R, t, a, b, p, nb, nt) for nb, nt in _HS_GRIDS])
     z, res, _ = hs_refine(z0, a, b, R, t, p, 40)
+    z = z[(res < 1e-9) & np.all(np.abs(z[:, 1:]) <= np.pi, 1)]   # (−π, π]: no further turn
+    G = np.cos(z[:, :1]) * a + np.sin(z[:, :1]) * b
+    # every converged start's points at once: least squares by the SVD (as lstsq's gelsd)
+    A, rhs = hs_systems(G, np.ascontiguousarray(z[:, 1:]), R, t, p)
+    U, s, Vt = np.linalg.svd(A, full_matrices=False)
+    x = np.einsum("kij,ki->kj", Vt, np.einsum("kji,kj->ki", U, rhs) / s)
+    E1, E2 = _perp(G)
     out = []
-    for k in np.flatnonzero(res < 1e-9):
-        beta, th = z[k, 0], z[k, 1:]
-        if np.any(np.abs(th) > np.pi):
-            continue                       # a further turn: outside the convention (−π, π]
-        g = np.cos(beta) * a + np.sin(beta) * b
-        A, rhs = hs_system(g, th, R, t, p)
-        s = np.linalg.svd(A, compute_uv=False)
-        if s[-1] < 1e-9 * s[0]:
-            continue
-        x = np.linalg.lstsq(A, rhs, rcond=None)[0]
-        e1, e2 = _perp(g)
-        C, c = x[:3], x[3] * e1 + x[4] * e2
+    for k in np.flatnonzero(s[:, -1] >= 1e-9 * s[:, 0]):
+        beta, th, g = z[k, 0], z[k, 1:], G[k]
+        C, c = x[k, :3], x[k, 3] * E1[k] + x[k, 4] * E2[k]
         if beta < 0 or beta >= np.pi:                            # back to β ∈ [0, π)
             k2 = np.floor(beta / np.pi)
             if int(k2) % 2:
@@ -1061,43 +1037,64 @@ def _hs_core(R, t, a, b, p, steps: int = 3):
     return out
 
 
-def _hs_family(screws, pitch, azimuth, frame, tol, kind):
+def _hs_family(screws, pitch, azimuths, frame, tol, kind):
+    """HS (``kind`` "HS") or SH links through the positions of ``screws`` for each of the
+    ``azimuths``: a list with, per azimuth, its links or the SynthesisError it raised.
+    The task is validated and normalised once for all azimuths (bad input common to all
+    of them raises)."""
     task = _task(screws, "screws", (4,))
     scr = _screws(screws, "screws")
     p = number(pitch, "pitch", unit_="length/rad")
-    psi = number(azimuth, "azimuth", unit_="rad")
+    psis = [number(psi, "azimuth", unit_="rad") for psi in azimuths]
     tol = number(tol, "tol", positive=True)
     F = _frame_arg(frame, scr)
+    out: list = []
     if p == 0:
-        return _rs_family(scr, psi, F, tol, "RS" if kind == "HS" else "SR")
+        for psi in psis:
+            try:
+                out.append(_rs_family(scr, psi, F, tol, "RS" if kind == "HS" else "SR"))
+            except SynthesisError as e:
+                out.append(e)
+        return out
     _check_turning(task, "screws")
     R, t = task.R, task.t
     if kind == "SH":
         R, t = _inverse(R, t)
-    a, b = _circle(F, psi)
+    R, t = np.ascontiguousarray(R), np.ascontiguousarray(t)
     L, c0 = task.L, task.c
-    pn = p / L
     n = len(task.T)
     z = np.zeros(n)
     I3 = np.eye(3)[None]
-    out = []
-    for beta, g, C, c, th in _hs_core(R, t, a, b, pn):
-        G = _rot(g, th)
-        S = np.swapaxes(G, -1, -2) @ R
-        Cw = C * L + c0
-        axis = Line(g, c * L + c0)
-        params = {"azimuth": psi, "elevation": beta}
-        ang = np.r_[0.0, th]
-        if kind == "HS":
-            link = BinaryLink("HS", axis.canonical(), Line._exact(g.copy(), Cw), p, np.nan, ang,
-                              p * ang, z.copy(), z.copy(), 0.0, params,
-                              sphere_rotations=np.concatenate([I3, S]))
-        else:
-            link = BinaryLink("SH", Line._exact(g.copy(), Cw), Line._exact(g.copy(),
-                              axis.foot_from(Cw)), np.nan, p, z, z.copy(), -ang, -p * ang, 0.0,
-                              params, sphere_rotations=np.concatenate([I3, np.swapaxes(S, -1, -2)]))
-        out.append(link)
-    return [lk for lk in _residuals(out, task) if lk.residual <= tol]
+    links = []
+    for psi in psis:
+        a, b = _circle(F, psi)
+        _, rs_beta, *_, rs_th, _, scale = _rs_batch(R[None], t[None], a[None], b[None],
+                                                    np.zeros(1, int))
+        if scale[0] == 0:                       # the RS condition vanishes on the circle
+            out.append(SynthesisError(_RS_DEGENERATE))
+            continue
+        found = _hs_core(R, t, a, b, p / L, np.concatenate([rs_beta[:, None], rs_th], 1))
+        out.append([])
+        for beta, g, C, c, th in found:
+            G = _rot(g, th)
+            S = np.swapaxes(G, -1, -2) @ R
+            Cw = C * L + c0
+            axis = Line(g, c * L + c0)
+            params = {"azimuth": psi, "elevation": beta}
+            ang = np.r_[0.0, th]
+            if kind == "HS":
+                link = BinaryLink("HS", axis.canonical(), Line._exact(g.copy(), Cw), p, np.nan,
+                                  ang, p * ang, z.copy(), z.copy(), 0.0, params,
+                                  sphere_rotations=np.concatenate([I3, S]))
+            else:
+                link = BinaryLink("SH", Line._exact(g.copy(), Cw), Line._exact(
+                    g.copy(), axis.foot_from(Cw)), np.nan, p, z, z.copy(), -ang, -p * ang, 0.0,
+                    params, sphere_rotations=np.concatenate([I3, np.swapaxes(S, -1, -2)]))
+            out[-1].append(link)
+            links.append(link)
+    _residuals(links, task)                           # all azimuths' links at once
+    return [r if isinstance(r, SynthesisError) else [lk for lk in r if lk.residual <= tol]
+            for r in out]
 
 
 def _hs_links_grid(kind, screws, combos, psis, pitch, frame):
@@ -1106,20 +1103,28 @@ def _hs_links_grid(kind, screws, combos, psis, pitch, frame):
     the ψ ``psis[a]``.  Returns the links, each link's block ``i · len(psis) + a``
     (ndarray of int) and the error message of each block (``""`` where it solved), an
     (len(combos), len(psis)) object array."""
-    fn = hs_links if kind == "HS" else sh_links
     error = np.full((len(combos), len(psis)), "", dtype=object)
     links, blocks = [], []
     for i, others in enumerate(np.asarray(combos).tolist()):
         sub = [screws[j - 1] for j in others]
-        for a, psi in enumerate(psis):
-            try:
-                found = fn(sub, pitch, float(psi), frame=frame)
-            except SynthesisError as e:
-                error[i, a] = str(e)
+        try:
+            res = _hs_family(sub, pitch, [float(psi) for psi in psis], frame, 1e-9, kind)
+        except SynthesisError as e:
+            res = [e] * len(psis)
+        for a, found in enumerate(res):
+            if isinstance(found, SynthesisError):
+                error[i, a] = str(found)
                 continue
             links += found
             blocks += [i * len(psis) + a] * len(found)
     return links, np.array(blocks, int), error
+
+
+def _one_azimuth(found):
+    """The links of a single azimuth's result, raising its error."""
+    if isinstance(found[0], SynthesisError):
+        raise found[0]
+    return found[0]
 
 
 def hs_links(screws, pitch: float, azimuth: float, *, frame=None,
@@ -1162,7 +1167,7 @@ def hs_links(screws, pitch: float, azimuth: float, *, frame=None,
     SynthesisError
         As :func:`rs_links_at`.
     """
-    return _hs_family(screws, pitch, azimuth, frame, tol, "HS")
+    return _one_azimuth(_hs_family(screws, pitch, [azimuth], frame, tol, "HS"))
 
 
 def sh_links(screws, pitch: float, azimuth: float, *, frame=None,
@@ -1193,4 +1198,4 @@ def sh_links(screws, pitch: float, azimuth: float, *, frame=None,
     SynthesisError
         As :func:`rs_links_at`.
     """
-    return _hs_family(screws, pitch, azimuth, frame, tol, "SH")
+    return _one_azimuth(_hs_family(screws, pitch, [azimuth], frame, tol, "SH"))

@@ -71,7 +71,10 @@ def helical_links(s12, s13, fixed_pitch: float = 0.0, moving_pitch: float = 0.0,
         the grid must resolve the solutions' basins (the default found the generating
         link of 80 of 80 random HH/RH/HR/RR chains with joint rotations 0.1–2.5 rad; 6000
         missed 3).  Not a proof of completeness: solutions whose basins are narrower
-        than the grid spacing (~0.02 rad at the default) can be missed.
+        than the grid spacing (~0.02 rad at the default) can be missed; against a grid
+        of 40,000 directions the default missed 4 of 1,608 links on 720 random
+        three-position tasks (each a link turning its moving joint by less than 0.35 rad
+        or its fixed one by more than 2.8 rad), and found none the denser grid missed.
     tol : float
         Largest pose error accepted (rad, or translation relative to the task's reach).
 

@@ -10,8 +10,8 @@ here, compiled, one small system after another:
   its linear unknowns (the axes' points, the sphere centre) projected out;
 * the misfit on a grid of directions (HH) or of (elevation, angles) (HS), and the HS
   grid's local minima;
-* one Levenberg–Marquardt for any of the residuals (finite-difference Jacobian: forward
-  for HH, central for HS), its residual's call chain inlined;
+* one Levenberg–Marquardt for any of the residuals (Jacobian by forward differences for
+  HH, exact for HS), its residual's call chain inlined;
 * the HS equations of many converged starts, for their least-squares points.
 
 Inlining (numba's ``inline="always"``) pays where a small function runs in a tight loop
@@ -405,6 +405,124 @@ def _hs_residual(z, a, b, R, t, p, f, V, Ms, A, rhs, Q):
 
 
 @_kernel
+def _hs_jacobian(z, a, b, R, t, p, f, J, V, Ms, A, rhs, Q, W):
+    """Jacobian J (9, 4) of the HS residual f (9,) at z (:func:`_hs_residual`), exact
+    (Golub & Pereyra 1973): with A = Qᵀ U (Gram–Schmidt), x = A⁺ rhs, column k is
+    ``(I − QᵀQ)(∂A_k x − ∂rhs_k) − Qᵀ U⁻ᵀ ∂A_kᵀ f``.  Position j's rows
+    ``[R_j − G_j | (G_j − I) e1 | (G_j − I) e2]`` change with θ_j and β through G_j only
+    (the residual depends on A's column space, which e1, e2 ⊥ g do not change), so
+    ``∂A_j x = D (c − C)`` with D = ∂G_j (C the centre, c the axis point).  False where A
+    is rank deficient (scratch as :func:`_scratch`, W (9, 9))."""
+    g, gp, dv, u, e1, e2 = V[2], V[3], V[4], V[5], V[6], V[7]
+    G = Ms[0]
+    U, x, y, w, uu = W[0:5, 0:5], W[5, 0:5], W[6, 0:5], W[7, 0:5], W[8]
+    cb, sb = math.cos(z[0]), math.sin(z[0])
+    for i in range(3):
+        g[i] = cb * a[i] + sb * b[i]
+        gp[i] = -sb * a[i] + cb * b[i]                                  # dg/dβ
+    for j in range(3):
+        _hs_rows(g, z[1 + j], R[j], t[j], p, A[3 * j:3 * j + 3], rhs[3 * j:3 * j + 3], V,
+                 Ms[0])
+    for i in range(3):
+        e1[i], e2[i] = V[0, i], V[1, i]
+    n = 5
+    for j in range(n):                               # modified Gram–Schmidt, A = Qᵀ U
+        for i in range(9):
+            Q[j, i] = A[i, j]
+        for k in range(j):
+            d = 0.0
+            for i in range(9):
+                d += Q[k, i] * Q[j, i]
+            U[k, j] = d
+            for i in range(9):
+                Q[j, i] -= d * Q[k, i]
+        d = 0.0
+        for i in range(9):
+            d += Q[j, i] * Q[j, i]
+        d = math.sqrt(d)
+        if not d > 0.0:
+            return False
+        U[j, j] = d
+        for k in range(j + 1, n):
+            U[k, j] = 0.0
+        for i in range(9):
+            Q[j, i] /= d
+    for k in range(n):                               # x = U⁻¹ Q rhs
+        d = 0.0
+        for i in range(9):
+            d += Q[k, i] * rhs[i]
+        y[k] = d
+    for k in range(n - 1, -1, -1):
+        d = y[k]
+        for m in range(k + 1, n):
+            d -= U[k, m] * x[m]
+        x[k] = d / U[k, k]
+    for i in range(3):
+        u[i] = x[3] * e1[i] + x[4] * e2[i] - x[i]                    # c − C
+    for col in range(4):
+        for m in range(n):
+            w[m] = 0.0
+        for j in range(3):
+            th = z[1 + j]
+            if col > 0 and col != 1 + j:
+                for i in range(3):
+                    uu[3 * j + i] = 0.0
+                continue
+            if col == 0:                                              # D = ∂G_j/∂β
+                sn, cs = math.sin(th), math.cos(th)
+                _dg_times(g, gp, sn, 1.0 - cs, u, dv)
+                for i in range(3):
+                    uu[3 * j + i] = dv[i] - p * th * gp[i]
+                _dg_times(g, gp, -sn, 1.0 - cs, f[3 * j:3 * j + 3], dv)   # Dᵀ = D at −θ
+            else:                                                      # D = [g]× G_j
+                _rot3(g, th, G)
+                for i in range(3):                                    # G_j (c − C)
+                    dv[i] = G[i, 0] * u[0] + G[i, 1] * u[1] + G[i, 2] * u[2]
+                _cross3(g, dv, Ms[1, 0])
+                for i in range(3):
+                    uu[3 * j + i] = Ms[1, 0, i] - p * g[i]
+                fj = f[3 * j:3 * j + 3]
+                _cross3(fj, g, Ms[1, 1])                               # Dᵀ f = G_jᵀ (f × g)
+                for i in range(3):
+                    dv[i] = G[0, i] * Ms[1, 1, 0] + G[1, i] * Ms[1, 1, 1] + G[2, i] * Ms[1, 1, 2]
+            for i in range(3):                                        # ∂A_jᵀ f_j
+                w[i] -= dv[i]
+            w[3] += e1[0] * dv[0] + e1[1] * dv[1] + e1[2] * dv[2]
+            w[4] += e2[0] * dv[0] + e2[1] * dv[1] + e2[2] * dv[2]
+        for k in range(n):                                            # y = U⁻ᵀ w
+            d = w[k]
+            for m in range(k):
+                d -= U[m, k] * y[m]
+            y[k] = d / U[k, k]
+        for k in range(n):                                            # Q uu, then project
+            d = 0.0
+            for i in range(9):
+                d += Q[k, i] * uu[i]
+            w[k] = d
+        for i in range(9):
+            d = uu[i]
+            for k in range(n):
+                d -= Q[k, i] * (w[k] + y[k])
+            J[i, col] = d
+    return True
+
+
+@_inline
+def _dg_times(g, gp, s, omc, v, out):
+    """out = (s [g′]× + omc ([g′]× [g]× + [g]× [g′]×)) v: the derivative of the rotation
+    about g by θ (s = sin θ, omc = 1 − cos θ) along g′ ⊥ g, applied to v."""
+    a0 = g[1] * v[2] - g[2] * v[1]                    # g × v
+    a1 = g[2] * v[0] - g[0] * v[2]
+    a2 = g[0] * v[1] - g[1] * v[0]
+    b0 = gp[1] * v[2] - gp[2] * v[1]                  # g′ × v
+    b1 = gp[2] * v[0] - gp[0] * v[2]
+    b2 = gp[0] * v[1] - gp[1] * v[0]
+    out[0] = s * b0 + omc * ((gp[1] * a2 - gp[2] * a1) + (g[1] * b2 - g[2] * b1))
+    out[1] = s * b1 + omc * ((gp[2] * a0 - gp[0] * a2) + (g[2] * b0 - g[0] * b2))
+    out[2] = s * b2 + omc * ((gp[0] * a1 - gp[1] * a0) + (g[0] * b1 - g[1] * b0))
+
+
+@_kernel
 def hs_grid(a, b, R, t, p, nb, nt):
     """The variable-projection misfit (normal equations) of the HS equations on the grid
     of ``nb`` elevations β ∈ (0, π) and ``nt`` angles per position in (−π, π) (a, b the
@@ -517,27 +635,22 @@ def _cost(kind, z, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
 
 
 @_inline
-def _jacobian(kind, z, f0, k, P, R, t, v, h, J, fp, zt, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
-    """Finite-difference Jacobian J (r, n) of system k at z (f0 its residual there):
-    forward differences for the HH misfit (as MINPACK's lmdif; measured: the same links
-    as central ones on the reference tasks, at half the residuals), central ones for the
-    HS residual (forward ones lost a link there); False where not finite.  The residual
-    is called from one place (each call site is a copy of it, inlined)."""
-    n = z.shape[0]
-    for e in range(n if kind == _HH else 2 * n):
-        i = e % n
+def _jacobian(kind, z, f0, k, P, R, t, v, h, J, fp, zt, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q,
+              W):
+    """Jacobian J (r, n) of system k at z (f0 its residual there): forward differences for
+    the HH misfit (as MINPACK's lmdif; measured: the same links as central ones on the
+    reference tasks, at half the residuals), the exact variable-projection Jacobian for the
+    HS residual (:func:`_hs_jacobian`: one evaluation against central differences' eight;
+    the links of 116 reference tasks kept, 20 more found); False where not finite.  The
+    HH residual is called from one place here (each call site is a copy of it, inlined)."""
+    if kind == _HS:
+        return _hs_jacobian(z, P[0, 0], P[0, 1], R, t, v[0], f0, J, V, Ms, A9, rhs9, Q, W)
+    for i in range(z.shape[0]):
         zt[:] = z
-        zt[i] = z[i] + h if e < n else z[i] - h
+        zt[i] = z[i] + h
         _residual(kind, zt, k, P, R, t, v, fp, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
         for r in range(fp.shape[0]):
-            if kind == _HH:
-                J[r, i] = (fp[r] - f0[r]) / h
-            elif e < n:
-                J[r, i] = fp[r]
-            else:
-                J[r, i] = (J[r, i] - fp[r]) / (2 * h)
-    for r in range(J.shape[0]):
-        for i in range(n):
+            J[r, i] = (fp[r] - f0[r]) / h
             if not math.isfinite(J[r, i]):
                 return False
     return True
@@ -568,6 +681,7 @@ def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
     JtJ = np.empty((n, n))
     hist = np.empty(iters + 1)
     V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q = _scratch()
+    W = np.zeros((9, 9))
     for k in range(N):
         zk = z[k]
         za[:] = zk
@@ -578,7 +692,7 @@ def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
             cn = _cost(kind, za, k, P, R, t, v, fn, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
             # the trial's Jacobian only where it is accepted (a rejected step costs one residual)
             if (it < 0 or cn < cost) and _jacobian(kind, za, fn, k, P, R, t, v, h, Jn, fp, zt,
-                                                   V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
+                                                   V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q, W):
                 zk[:] = za
                 f[:] = fn
                 J[:, :] = Jn
@@ -637,7 +751,7 @@ def hh_refine(bases, R, t, pn, iters: int = 80):
 
 def hs_refine(z0, a, b, R, t, p: float, iters: int):
     """Levenberg–Marquardt on the HS residual from z0 (N, 4) = (β, θ₂, θ₃, θ₄) on the
-    circle of a, b (3,); R (3, 3, 3), t (3, 3), pitch p.  Returns z (N, 4), |f| (N,),
-    iterations (N,)."""
+    circle of a, b (3,); R (3, 3, 3), t (3, 3), pitch p; its Jacobian exact.  Returns
+    z (N, 4), |f| (N,), iterations (N,)."""
     return _levenberg_marquardt(_HS, np.ascontiguousarray(z0, float), np.stack([a, b])[None],
-                                R, t, np.array([p], float), 9, iters, 1e-7)
+                                R, t, np.array([p], float), 9, iters, 0.0)

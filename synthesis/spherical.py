@@ -1066,14 +1066,16 @@ def _hs_family(screws, pitch, azimuths, frame, tol, kind):
     z = np.zeros(n)
     I3 = np.eye(3)[None]
     links = []
-    for psi in psis:
-        a, b = _circle(F, psi)
-        _, rs_beta, *_, rs_th, _, scale = _rs_batch(R[None], t[None], a[None], b[None],
-                                                    np.zeros(1, int))
-        if scale[0] == 0:                       # the RS condition vanishes on the circle
+    circles = [_circle(F, psi) for psi in psis]
+    # the RS links (pitch 0) of every azimuth's circle at once: the continuation's starts
+    circle, rs_beta, *_, rs_th, _, scale = _rs_batch(
+        R[None], t[None], *map(np.array, zip(*circles)), np.zeros(len(psis), int))
+    for i, psi in enumerate(psis):
+        if scale[i] == 0:                       # the RS condition vanishes on the circle
             out.append(SynthesisError(_RS_DEGENERATE))
             continue
-        found = _hs_core(R, t, a, b, p / L, np.concatenate([rs_beta[:, None], rs_th], 1))
+        z = np.concatenate([rs_beta[circle == i, None], rs_th[circle == i]], 1)
+        found = _hs_core(R, t, *circles[i], p / L, z)
         out.append([])
         for beta, g, C, c, th in found:
             G = _rot(g, th)

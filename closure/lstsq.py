@@ -12,6 +12,8 @@ import functools
 
 import numpy as np
 
+from .state import _arr
+
 __all__: list[str] = []
 
 
@@ -43,8 +45,16 @@ def _threadpools():
 def _serial_blas(J):
     """Context: BLAS on one thread while the batch ``J (..., m, n)`` is factorised, where
     its matrices are big enough for BLAS to thread (:data:`SERIAL_BLAS_ENTRIES`)."""
-    if J.shape[-1] * J.shape[-2] < SERIAL_BLAS_ENTRIES:
-        return contextlib.nullcontext()
+    return _serial_blas_entries(J.shape[-1] * J.shape[-2])
+
+
+_NULL = contextlib.nullcontext()
+
+
+def _serial_blas_entries(entries: int):
+    """:func:`_serial_blas` for matrices of ``entries`` entries."""
+    if entries < SERIAL_BLAS_ENTRIES:
+        return _NULL
     return _threadpools().limit(limits=1, user_api="blas")
 
 
@@ -77,17 +87,24 @@ def _cond_of(s, rank):
     """``s_max / s_rank`` from singular values ``(..., k)`` (inf where ``s_rank`` is 0)."""
     rank = min(rank, s.shape[-1])
     srank = s[..., rank - 1] if rank > 0 else np.ones(s.shape[:-1])
+    if (srank > 1e-290).all():                  # no zero, no overflow: plain division
+        return s[..., 0] / srank
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         return np.where(srank > 0, s[..., 0] / np.where(srank > 0, srank, 1.0), np.inf)
 
 
 def _condition(J, rank):
     """Condition number ``s_max / s_rank`` of a batch of matrices (as :func:`_pinv_parts`,
-    from the singular values alone)."""
+    from the singular values alone: numpy's batched SVD without the vectors)."""
     if J.shape[-1] == 0 or J.shape[-2] == 0:
         return np.ones(J.shape[:-2])
     with _serial_blas(J):
         return _cond_of(np.linalg.svd(J, compute_uv=False), rank)
+
+
+#: placeholders for the arguments a task of closure.solve_kernels.lsq_batch does not use
+_NO_1, _NO_3 = np.zeros(0), np.zeros((0, 0, 0))
+_NO_R = np.zeros((0, 0, 1))
 
 
 #: poses whose estimated condition number (an upper bound, within a factor min(m, n))
@@ -101,13 +118,15 @@ class _LstSq:
     (B, m, n) truncated to ``rank``: the pseudo-inverse of :func:`_pinv_parts`.
 
     Where the expected rank is full (``min(m, n)``) the Gram matrix ``G`` (``J Jᵀ`` for
-    wide, ``Jᵀ J`` for tall matrices) is factored by a batched Cholesky and solves take
-    one step of iterative refinement; poses whose factorisation fails or whose condition
-    estimate ``sqrt(tr G · tr G⁻¹)`` (at least the condition, at most ``min(m, n)``
-    times it) exceeds :data:`FAST_COND`, and every pose of a mechanism whose expected
-    rank is below ``min(m, n)``, use the truncated SVD as before (minimum-norm steps,
-    never a 1/0).  No singular value is truncated at a Cholesky pose (its condition is
-    far below ``1 / SINGULAR_RTOL``), so both give the same pseudo-inverse.
+    wide, ``Jᵀ J`` for tall matrices) is factored by Cholesky and solves take one step of
+    iterative refinement; poses whose factorisation fails or whose condition estimate
+    ``sqrt(tr G · tr G⁻¹)`` (at least the condition, at most ``min(m, n)`` times it)
+    exceeds :data:`FAST_COND`, and every pose of a mechanism whose expected rank is below
+    ``min(m, n)``, use the truncated SVD (minimum-norm steps, never a 1/0).  No singular
+    value is truncated at a Cholesky pose (its condition is far below
+    ``1 / SINGULAR_RTOL``), so both give the same pseudo-inverse.  The work is done per
+    matrix by the compiled kernels the solver's Newton step uses
+    (:mod:`closure.solve_kernels`).
 
     Attributes
     ----------
@@ -116,51 +135,21 @@ class _LstSq:
     """
 
     def __init__(self, J, rank):
+        from . import solve_kernels
+        self._k = solve_kernels
+        J = _arr(J)
         B, m, n = J.shape
         k = min(m, n)
         self.J, self.wide = J, m < n
-        self._inv_smin = np.zeros(B)
+        self.fast = np.zeros(B, dtype=bool)
+        self.cond = np.empty(B)
+        self._inv_smin = np.empty(B)
+        self.Ginv = np.zeros((B, k, k))
+        self.U, self.inv_s, self.Vt = np.zeros((B, m, k)), np.zeros((B, k)), np.zeros((B, k, n))
         with _serial_blas(J):
-            self.fast = self._gram(J) if B and k and min(rank, k) == k else np.zeros(B, bool)
+            solve_kernels.lsq_batch(0, J, int(rank), self.fast, self.cond, self._inv_smin,
+                                    self.Ginv, self.U, self.inv_s, self.Vt, _NO_R, _NO_3, 0.0)
         self.slow = np.nonzero(~self.fast)[0]
-        self.cond = np.full(B, np.nan)
-        if self.slow.size:
-            U, inv_s, Vt, cond = _pinv_parts(J[self.slow], rank)
-            self.U, self.inv_s, self.Vt = U, inv_s, Vt
-            self._inv_smin[self.slow] = np.max(inv_s, axis=1, initial=0.0)
-            self.cond[self.slow] = cond
-
-    def _gram(self, J):
-        """Factor the Gram matrices; the poses that take the Cholesky path."""
-        B = J.shape[0]
-        Jt = np.swapaxes(J, 1, 2)
-        G = J @ Jt if self.wide else Jt @ J
-        ok = None
-        try:
-            L = np.linalg.cholesky(G)
-        except np.linalg.LinAlgError:          # some not positive definite: screen them
-            with np.errstate(all="ignore"):
-                lam = np.linalg.eigvalsh(G)
-            ok = lam[:, 0] > 1e-13 * lam[:, -1]
-            L = np.tile(np.eye(G.shape[1]), (B, 1, 1))
-            try:
-                L[ok] = np.linalg.cholesky(G[ok])
-            except np.linalg.LinAlgError:
-                return np.zeros(B, dtype=bool)
-        Linv = np.linalg.inv(L)                 # triangular with a positive diagonal
-        tr_inv = np.einsum("bij,bij->b", Linv, Linv)                     # tr G⁻¹
-        cest = np.sqrt(np.einsum("bij,bij->b", J, J) * tr_inv)           # ≥ s_max / s_min
-        fast = cest <= FAST_COND                                         # False for NaN
-        if ok is not None:
-            fast &= ok
-        if fast.all():
-            self.Ginv = np.swapaxes(Linv, 1, 2) @ Linv                    # G⁻¹ = L⁻ᵀ L⁻¹
-            self._inv_smin = np.sqrt(tr_inv)                             # ≥ 1 / s_min
-        elif fast.any():
-            Li = Linv[fast]
-            self.Ginv = np.swapaxes(Li, 1, 2) @ Li
-            self._inv_smin[fast] = np.sqrt(tr_inv[fast])
-        return fast
 
     def inv_smin(self, above):
         """1 / (smallest kept singular value): exact for SVD poses; for Cholesky poses
@@ -168,20 +157,9 @@ class _LstSq:
         ``above``, else the 8th-power trace estimate (an upper bound within a factor
         ``min(m, n)^(1/16)``, nearly exact where that singular value stands apart; both to
         the eps · cond² ≤ 1e-4 of the normal equations)."""
-        out = self._inv_smin.copy()
-        big = self.fast & (out > above)
-        if big.any():
-            sel = big[self.fast]
-            Gi = self.Ginv[sel]
-            lam = out[big] ** 2                                          # tr G⁻¹
-            M = Gi / lam[:, None, None]
-            with np.errstate(all="ignore"):
-                for p in (2, 4, 8):                  # λ_max(G⁻¹) ≤ tr(G⁻ᵖ)^(1/p)
-                    M = M @ M
-                    t = np.trace(M, axis1=1, axis2=2)
-                    lam *= t ** (1.0 / p)
-                    M /= t[:, None, None]
-            out[big] = np.sqrt(lam)
+        out = np.empty(self.fast.size)
+        self._k.lsq_batch(2, self.J, 0, self.fast, out, self._inv_smin, self.Ginv, self.U,
+                          self.inv_s, self.Vt, _NO_R, _NO_3, float(above))
         return out
 
     def solve(self, R):
@@ -189,23 +167,10 @@ class _LstSq:
         step of iterative refinement takes the relative error from about eps · cond² to
         (eps · cond²)² + eps · cond (≤ 1e-8 at ``FAST_COND``; the SVD's is eps · cond)."""
         B, m, n = self.J.shape
-        X = np.zeros((B, n, R.shape[2]))
-        if self.fast.any():
-            allf = self.fast.all()
-            J = self.J if allf else self.J[self.fast]
-            Rf = R if allf else R[self.fast]
-            Jt = np.swapaxes(J, 1, 2)
-            Gi = self.Ginv
-            if self.wide:
-                Xf = Jt @ (Gi @ Rf)
-                Xf += Jt @ (Gi @ (Rf - J @ Xf))
-            else:
-                Xf = Gi @ (Jt @ Rf)
-                Xf += Gi @ (Jt @ (Rf - J @ Xf))
-            if allf:
-                return Xf
-            X[self.fast] = Xf
-        if self.slow.size:
-            X[self.slow] = np.einsum("bkn,bk,bmk,bmj->bnj", self.Vt, self.inv_s, self.U,
-                                     R[self.slow])
+        R = _arr(R)
+        if R.shape[:2] != (B, m):
+            raise ValueError(f"solve: expected right-hand sides ({B}, {m}, j), got {R.shape}")
+        X = np.empty((B, n, R.shape[2]))
+        self._k.lsq_batch(1, self.J, 0, self.fast, _NO_1, _NO_1, self.Ginv, self.U, self.inv_s,
+                          self.Vt, R, X, 0.0)
         return X

@@ -77,21 +77,23 @@ class Pose:
         return self.__dict__["_condition"]
 
     def _fill_condition(self) -> None:
-        """Compute the condition numbers left NaN by the solver (batched SVD, in chunks)."""
-        from .lstsq import _condition, _expected_rank
+        """Compute the condition numbers left NaN by the solver (one SVD per pose, from the
+        kept twists, else from states recomputed in chunks)."""
         c = self.__dict__["_condition"]
         idx = np.nonzero(np.isnan(c))[0]
         if idx.size:
+            from .lstsq import _expected_rank
             m = self.mechanism
-            plan, unknown, rank = m.plan, m.unknown_columns(), _expected_rank(m)
+            plan = m.plan
+            _expected_rank(m)                   # known with the plan from the first solve
             ks = self._ks
-            for a in range(0, idx.size, 2048):
-                sub = idx[a:a + 2048]
-                if ks is not None and ks.S is not None:
-                    S = ks.S[sub]
-                else:
-                    S = plan.evaluate(self.q[sub], self.rot[sub]).S
-                c[sub] = _condition(plan.scaled_jacobian(S, unknown), rank)
+            if ks is not None and ks.S is not None:
+                c[idx] = plan.condition(ks.S, idx)
+            else:
+                for a in range(0, idx.size, 2048):
+                    sub = idx[a:a + 2048]
+                    c[sub] = plan.condition(plan.evaluate(self.q[sub], self.rot[sub]).S,
+                                            np.arange(sub.size))
         self._cond_pending = False
 
     @property
@@ -187,15 +189,26 @@ class Pose:
 
     def table(self) -> pd.DataFrame:
         """One row per pose: inputs, joint coordinates, residual, condition, iterations, status."""
+        return pd.DataFrame(self._columns())
+
+    def _columns(self) -> dict:
+        """The columns of :meth:`table`, in order (one DataFrame built from them)."""
         m = self.mechanism
-        df = pd.DataFrame(self.inputs, columns=[f"input:{lab}" for lab in m.input_labels()])
-        vals = pd.DataFrame(self.values(), columns=m.coordinate_labels())
-        df = pd.concat([df, vals], axis=1)
-        df["residual"] = self.residual
-        df["condition"] = self.condition
-        df["iterations"] = self.iterations
-        df["status"] = self.status_text
-        return df
+        cols = {f"input:{lab}": self.inputs[:, k] for k, lab in enumerate(m.input_labels())}
+        vals = self.values()
+        labels = m.coordinate_labels()
+        if len(set(labels)) < len(labels) or set(labels) & set(cols):    # never, by naming
+            df = pd.DataFrame(self.inputs, columns=list(cols))
+            df = pd.concat([df, pd.DataFrame(vals, columns=labels)], axis=1)
+            df["residual"], df["condition"] = self.residual, self.condition
+            df["iterations"], df["status"] = self.iterations, self.status_text
+            return df
+        cols.update((lab, vals[:, k]) for k, lab in enumerate(labels))
+        cols["residual"] = self.residual
+        cols["condition"] = self.condition
+        cols["iterations"] = self.iterations
+        cols["status"] = self.status_text
+        return cols
 
 
 def _get_condition(self) -> np.ndarray:

@@ -1,23 +1,22 @@
 """Loop closure: damped Gauss–Newton on the stacked 6-vector loop residuals.
 
-One routine serves one pose and a batch alike (vectorised over the batch: the
-only Python loops run over Newton iterations and line-search halvings).  The
-Jacobian is made dimensionless (translations and slides divided by the
-mechanism's length scale) before its singular values are taken, so its
-condition number means the same at any size of mechanism.  Steps use the
-pseudo-inverse truncated to the expected rank (the unknowns minus the idle
-freedoms, e.g. the spin of an S–S rod), which is least squares for
-overconstrained loops (Bennett, Bricard) and keeps idle freedoms still.  It is
-applied by batched Cholesky on the normal equations where the Jacobian is well
-conditioned and by the truncated SVD elsewhere (:class:`_LstSq`); the condition
-number is computed once, for the poses returned (for well-conditioned poses when it
-is first read).
+One routine serves one pose and a batch alike: the Newton iterations, line searches and
+continuation paths run in one compiled kernel (:func:`closure.solve_kernels.drive`) that
+treats every member of a batch on its own, so the Python layer here only checks the
+arguments, makes the arrays and wraps the results.  The Jacobian is made dimensionless
+(translations and slides divided by the mechanism's length scale) before its singular
+values are taken, so its condition number means the same at any size of mechanism.
+Steps use the pseudo-inverse truncated to the expected rank (the unknowns minus the
+idle freedoms, e.g. the spin of an S–S rod), which is least squares for overconstrained
+loops (Bennett, Bricard) and keeps idle freedoms still.  It is applied by Cholesky on
+the normal equations where the Jacobian is well conditioned and by the truncated SVD
+elsewhere (as :class:`_LstSq`); the condition number is computed once, for the poses
+returned (for well-conditioned poses when it is first read).
 
-Each iteration makes one call to the mechanism's compiled :class:`~closure.state.Plan`
-(link poses, loop residuals and column twists of the whole batch) and one
-factorisation, which serves the Newton step and the first-order analogs at once
-(the Jacobian's input columns are extra right-hand sides): the continuation's
-predictor takes its tangent from the corrector's last iteration.
+Each iteration evaluates the kinematic state once per line-search trial and makes one
+factorisation, which serves the Newton step and the first-order analogs at once (the
+Jacobian's input columns are extra right-hand sides): the continuation's predictor takes
+its tangent from the corrector's last iteration.
 """
 from __future__ import annotations
 
@@ -26,16 +25,15 @@ import pandas as pd
 
 from .errors import ClosureError, MechanismError
 from .checks import shown
-from .kinematics import analogs
 from .lstsq import (FAST_COND, SINGULAR_RTOL, _cond_of, _condition, _expected_rank, _LstSq,
-                    _pinv_parts)
+                    _pinv_parts, _serial_blas_entries)
 from .pose import KEEP_STATE, STATUS, Pose
-from .state import KinematicState
+from .state import KinematicState, _arr
 
 __all__ = ["solve", "sweep", "predict", "SolverOptions"]
 
 #: the least-squares helpers now live in closure.lstsq; kept importable from here
-_FROM_LSTSQ = (SINGULAR_RTOL, _cond_of, _pinv_parts)
+_FROM_LSTSQ = (SINGULAR_RTOL, _cond_of, _condition, _LstSq, _pinv_parts)
 
 
 class SolverOptions:
@@ -125,7 +123,7 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None, exact_cond
     returned.
 
     ``columns`` and ``rank`` (default: the unknowns and their expected rank) choose
-    the coordinates that move.  Steps come from :class:`_LstSq` (normal equations where
+    the coordinates that move.  Steps are those of :class:`_LstSq` (normal equations where
     the Jacobian is well conditioned, the truncated SVD elsewhere); the condition
     number is computed once, for the returned poses.  With ``exact_cond=False`` it is
     left NaN for poses whose condition estimate is at most :data:`FAST_COND` (their
@@ -135,123 +133,58 @@ def newton(mech, state, opts: SolverOptions, columns=None, rank=None, exact_cond
     analogs (the Jacobian's input columns are extra right-hand sides): they are
     returned as ``ks.first`` for the converged poses (NaN elsewhere).
 
+    Every member is corrected on its own by the compiled kernel
+    :func:`closure.solve_kernels.drive` (the same iterations for one pose or a batch).
+
     Returns ``(state, residual, iterations, condition, converged, ks)`` where
     ``ks`` is the :class:`KinematicState` of the returned poses.
     """
     plan = mech.plan
     default = columns is None
-    unknown = plan.unknown if default else columns
-    rank = _expected_rank(mech) if rank is None else rank
-    nu = unknown.size
+    rank = _expected_rank(mech) if rank is None else int(rank)
     if default:
-        inp, cols, in_scale, u_scale = plan.input_v, plan.solve_cols, plan.input_cscale, \
-            plan.unknown_cscale
+        ucols, icols = plan._ucols, plan._icols
     else:
-        inp, cols = np.zeros(0, dtype=int), unknown
-    ni = inp.size
-    offset = plan.offset                                       # digits lost to the origin
-    floor, xtol = 1e-14 * offset, opts.xtol * offset
-    noise = 1e-15 * offset                                     # rounding in the residual
+        ucols, icols = np.array(columns, dtype=np.int64).reshape(-1), _NO_COLS
     q, rot = state
-    B = q.shape[0]
-    its = np.zeros(B, dtype=int)
-    done = np.zeros(B, dtype=bool)
-    cond = np.ones(B)
-    ks_all = plan.evaluate(q, rot)
-    q, rot = q.copy(), rot.copy()
-    res = _norm(plan.scaled_residual(ks_all.r))
-    prev = np.full(B, np.inf)
-    first_all = np.full((B, plan.nv, ni), np.nan) if default else None
-    last_step = np.full(B, np.nan)
-    if default and ni:
-        first_all[:, inp, np.arange(ni)] = 1.0
-    if nu == 0:                                  # open chain driven in every joint
-        done[:] = True
-        if default:
-            first_all[:, unknown] = 0.0
-    act = np.nonzero(~done)[0]
-    for _ in range(opts.maxiter):
-        if act.size == 0:
-            break
-        whole = act.size == B
-        S = ks_all.S if whole else ks_all.S[act]
-        r = plan.scaled_residual(ks_all.r if whole else ks_all.r[act])
-        Jc = plan.scaled_jacobian(S, cols)
-        ls = _LstSq(Jc[:, :, :nu] if ni else Jc, rank)
-        cond[act] = ls.cond
-        its[act] += 1
-        if ni:
-            rhs = np.empty(r.shape + (1 + ni,))
-            rhs[:, :, 0] = r
-            rhs[:, :, 1:] = Jc[:, :, nu:] / in_scale
-            X = ls.solve(rhs)
-            step_u = -X[:, :, 0]
-        else:
-            step_u = -ls.solve(r[:, :, None])[:, :, 0]
-        big = np.max(np.abs(step_u), axis=1)
-        ra = res if whole else res[act]
-        # converged: the residual at rounding level (the coordinates are then as accurate
-        # as the condition number allows), or steps of at most xtol that no longer
-        # reduce the residual
-        stalled = (its[act] > 1) & (ra > 0.5 * (prev if whole else prev[act]))
-        # near a singular configuration a residual at rounding level still leaves a
-        # coordinate error of residual / σ_min: converged only once the step itself is
-        # what rounding in the residual explains (noise / σ_min), or below xtol
-        tol_step = np.maximum(xtol, noise * ls.inv_smin(xtol / noise))
-        conv = (big <= tol_step) & ((ra <= floor) | stalled)
-        prev[act] = ra
-        if conv.any():
-            ca = act[conv]
-            done[ca] = True
-            last_step[ca] = big[conv]
-            if ni:
-                first_all[ca[:, None], unknown] = -X[conv, :, 1:] * u_scale[:, None]
-            if conv.all():
-                break
-            move = np.nonzero(~conv)[0]
-            act, step_u, big = act[move], step_u[move], big[move]
-        step_u *= np.minimum(1.0, opts.max_step / np.maximum(big, 1e-300))[:, None]
-        step = np.zeros((act.size, plan.nv))
-        step[:, unknown] = step_u
-        # backtracking: accept the longest of 1, 1/2, 1/4 ... that does not raise the residual
-        whole = act.size == B
-        r0 = res if whole else res[act]
-        q0, rot0 = (q, rot) if whole else (q[act], rot[act])
-        trial_q, trial_rot = plan.apply(q0, rot0, step)
-        ks_t = plan.evaluate(trial_q, trial_rot)
-        rn = _norm(plan.scaled_residual(ks_t.r))
-        good = (rn <= r0 * (1 + 1e-9)) | (rn < floor)
-        if whole and good.all():                 # the full step everywhere: no gather
-            q, rot, res, ks_all = trial_q, trial_rot, rn, ks_t
-            continue
-        alpha = np.ones(act.size)
-        pending = np.ones(act.size, dtype=bool)
-        idx = np.arange(act.size)
-        for h in range(8):
-            if h:
-                idx = np.nonzero(pending)[0]
-                trial_q, trial_rot = plan.apply(q0[idx], rot0[idx], step[idx] * alpha[idx, None])
-                ks_t = plan.evaluate(trial_q, trial_rot)
-                rn = _norm(plan.scaled_residual(ks_t.r))
-                good = (rn <= r0[idx] * (1 + 1e-9)) | (rn < floor) | (h == 7)
-            g = act[idx[good]]
-            q[g], rot[g] = trial_q[good], trial_rot[good]
-            res[g] = rn[good]
-            ks_all.put(g, ks_t, good)
-            pending[idx[good]] = False
-            alpha[idx[~good]] *= 0.5
-            if not pending.any():
-                break
-        act = np.nonzero(~done)[0]
-    # the condition at the returned state: not converged, or a step by Cholesky
-    left = np.nonzero(~done | (np.isnan(cond) & exact_cond))[0]
-    if left.size:
-        S = ks_all.S if left.size == B else ks_all.S[left]
-        J = plan.scaled_jacobian(S, unknown)
-        cond[left] = _condition(J, rank) if exact_cond else _LstSq(J, rank).cond
-    ks_all.first = first_all
-    ks_all.step = last_step if default else None
-    return (q, rot), res, its, cond, done, ks_all
+    q = np.array(q, dtype=float)                 # copies: corrected in place
+    rot = np.array(rot, dtype=float)
+    plan._state_arrays(q, rot)
+    B, nv, nj = q.shape[0], plan.nv, plan.nj
+    link = np.empty((B, plan.nl, 4, 4))
+    fa = np.empty((B, nj, 4, 4))
+    A = np.empty((B, nj, 4, 4))
+    r = np.empty((B, plan.chords.size, 6))
+    S = np.empty((B, nv, 6))
+    first = np.empty((B, nv, icols.size))
+    res, cond, last = np.empty(B), np.empty(B), np.empty(B)
+    its = np.empty(B, dtype=np.int64)
+    flag = np.empty(B, dtype=np.int64)
+    k = plan._kernels
+    with _serial_blas_for(plan, ucols.size):
+        k.drive(k.NEWTON, *plan.packed, _NO_X, _NO_X, q, rot, A, link, fa, r, S, first, res, cond,
+                last, its, flag, _NO_T, False, _path_options(opts, 0.0),
+                opts.maxiter, rank, ucols, icols, _NO_X)
+    done = flag.astype(bool)
+    if exact_cond:             # the SVD's condition at the returned state, as the flags need
+        left = np.nonzero(~done | np.isnan(cond))[0]
+        if left.size:
+            if default and rank == _expected_rank(mech):
+                cond[left] = plan.condition(S, left)
+            else:
+                cond[left] = _condition(plan.scaled_jacobian(S[left], ucols), rank)
+    ks = KinematicState(link, fa, A, r, S, plan.carrier, plan.deps,
+                        first if default else None, last if default else None)
+    return (q, rot), res, its, cond, done, ks
+
+
+#: placeholders for the arguments a task of closure.solve_kernels.drive does not use
+_NO_COLS, _NO_X, _NO_T = np.zeros(0, dtype=np.int64), np.zeros((0, 0)), np.zeros((0, 0, 0))
+
+
+def _serial_blas_for(plan, n_cols):
+    """:func:`closure.lstsq._serial_blas` for the Jacobians of ``n_cols`` columns."""
+    return _serial_blas_entries(6 * plan.chords.size * n_cols)
 
 
 def _exact_condition(mech, ks, cond):
@@ -259,9 +192,8 @@ def _exact_condition(mech, ks, cond):
     from the kinematic state ``ks`` of the same poses."""
     idx = np.nonzero(np.isnan(cond))[0]
     if idx.size:
-        S = ks.S if idx.size == cond.size else ks.S[idx]
-        J = mech.plan.scaled_jacobian(S, mech.unknown_columns())
-        cond[idx] = _condition(J, _expected_rank(mech))
+        _expected_rank(mech)
+        cond[idx] = mech.plan.condition(ks.S, idx)
     return cond
 
 
@@ -298,18 +230,18 @@ def _cat_poses(poses, keep: bool = True) -> Pose:
                 _cond_pending=any(p._cond_pending for p in poses))
 
 
-def _norm(r):
-    return np.max(np.abs(r), axis=1) if r.shape[1] else np.zeros(r.shape[0])
-
-
 def _options(options) -> "SolverOptions":
     """The solver options: the default for None, else a SolverOptions."""
     if options is None:
-        return SolverOptions()
+        return _DEFAULT_OPTIONS
     if not isinstance(options, SolverOptions):
         raise MechanismError(f"options: expected a SolverOptions (or None), got "
                              f"{type(options).__name__}")
     return options
+
+
+#: the options of calls that give none (never changed: SolverOptions.replace copies)
+_DEFAULT_OPTIONS = SolverOptions()
 
 
 def _flag(v, name: str) -> bool:
@@ -351,10 +283,20 @@ def _origin_offset(mech) -> float:
 
 
 def _status(mech, res, cond, conv, opts):
+    """Status codes: 1 where the condition exceeds the limit, 2 not converged (``conv``;
+    None: all converged), 3 converged with a residual above ``rtol`` · offset."""
+    rtol = opts.rtol * mech.plan.offset
+    if res.shape == (1,):                       # one pose: no array operations
+        c = not conv[0] if conv is not None else False
+        s = 2 if c else 3 if res[0] > rtol else 1 if cond[0] > opts.cond_limit else 0
+        return np.array([s])
     status = np.zeros(res.shape, dtype=int)
     status[cond > opts.cond_limit] = 1
+    if conv is None:
+        status[res > rtol] = 3
+        return status
     status[~conv] = 2
-    status[conv & (res > opts.rtol * _origin_offset(mech))] = 3
+    status[conv & (res > rtol)] = 3
     return status
 
 
@@ -396,7 +338,8 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
     assembly.  At a pose whose condition number exceeds ``TANGENT_COND`` (a singular
     configuration the branch crosses) the tangent of the previous pose is kept, so
     the path leaves the crossing on the branch it came in on; ``tangent`` (B, nv, ni)
-    gives that previous tangent for the start poses.
+    gives that previous tangent for the start poses.  The members walk on their own in
+    the compiled kernel :func:`closure.solve_kernels.drive`.
 
     Returns
     -------
@@ -407,91 +350,70 @@ def _continue(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e
     tangent : (B, nv, ni)
         The first analogs used last (the path's tangent at the returned poses).
     """
-    t = mech.tree
+    x_cur, q, rot, res, its, cond, ks, stop, tan = _walk(mech, start, x_to, opts, min_step,
+                                                         tangent)
+    # conditions left NaN (estimate ≤ FAST_COND) are computed when the pose is asked
+    pose = Pose(mech, x_cur, q, rot, res, its, cond, np.zeros(len(start), int), _ks=ks,
+                _cond_pending=True)
+    return pose, stop, tan
+
+
+def _walk(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e-10,
+          tangent=None, owned: bool = False):
+    """:func:`_continue` as arrays: ``(x_cur, q, rot, residual, iterations, condition, ks,
+    stop, tangent)``.  With ``owned`` the arrays of ``start`` (and its kinematic state) are
+    updated in place instead of copied."""
+    plan = mech.plan
     B = len(start)
-    xs = _input_scale(mech)
-    x_from = start.inputs.astype(float).copy()
-    x_to = np.broadcast_to(np.asarray(x_to, float), x_from.shape).copy()
+    get = _arr if owned else np.array
+    x_from = np.array(start.inputs, dtype=float).reshape(B, -1)
+    x_to = np.asarray(x_to, float)
+    x_to = np.array(x_to if x_to.shape == x_from.shape else
+                    np.broadcast_to(x_to, x_from.shape))
+    ks = start.kinematics()
+    q, rot = get(start.q, dtype=float), get(start.rot, dtype=float)
+    link, fa, A, r, S = (get(a, dtype=float) for a in (ks.link, ks.frame_a, ks.A, ks.r, ks.S))
+    ni = x_from.shape[1]
+    first = np.full((B, plan.nv, ni), np.nan) if ks.first is None else \
+        get(ks.first, dtype=float)
+    step = np.full(B, np.nan) if ks.step is None else get(ks.step, dtype=float)
+    res = get(start.residual, dtype=float)
+    cond = get(start._raw_condition, dtype=float)
+    tan = np.zeros((B, plan.nv, ni)) if tangent is None else \
+        np.array(np.broadcast_to(tangent, (B, plan.nv, ni)), dtype=float)
+    x_cur = np.empty((B, ni))
+    its = np.empty(B, dtype=np.int64)
+    stop = np.empty(B, dtype=np.int64)
+    k = plan._kernels
+    with _serial_blas_for(plan, plan._ucols.size):
+        n = k.drive(k.CONTINUE, *plan.packed, x_from, x_to, q, rot, A, link, fa, r, S, first,
+                    res, cond, step, its, stop, tan, tangent is not None,
+                    _path_options(opts, min_step), min(opts.maxiter, 8), _expected_rank(mech),
+                    plan._ucols, plan._icols, x_cur)
+    if n < 0:                                   # a path longer than MAX_PATH
+        _check_path(x_from, x_to, plan.input_scale)
+    ks_out = KinematicState(link, fa, A, r, S, plan.carrier, plan.deps, first,
+                            None if ks.step is None else step)
+    return x_cur, q, rot, res, its, cond, ks_out, stop, tan
+
+
+def _path_options(opts: SolverOptions, min_step: float) -> np.ndarray:
+    """The solver kernel's tolerances: xtol, rtol, max_step, path_step, min_step,
+    TANGENT_COND, (unused), MAX_PATH."""
+    return np.array([opts.xtol, opts.rtol, opts.max_step, opts.path_step, min_step,
+                     TANGENT_COND, 0.0, MAX_PATH])
+
+
+def _check_path(x_from, x_to, xs) -> None:
+    """Raise when an input path is longer than :data:`MAX_PATH` (dimensionless)."""
     span = x_to - x_from
-    span_s = np.max(np.abs(span / xs), axis=1) if span.size else np.zeros(B)
+    span_s = np.max(np.abs(span / xs), axis=1) if span.size else np.zeros(span.shape[0])
     if span_s.max(initial=0.0) > MAX_PATH:
         i = int(np.argmax(span_s))
         raise MechanismError(f"inputs: {x_to[i].tolist()} lie {span_s[i]:.3g} (dimensionless) "
                              f"from the guess at {x_from[i].tolist()}; continuation follows "
                              f"paths up to {MAX_PATH:g}: give a guess nearer the inputs, or "
                              "continuation=False")
-    q, rot = start.q.copy(), start.rot.copy()
-    x_cur = x_from.copy()
-    res, cond = start.residual.astype(float).copy(), start._raw_condition.astype(float).copy()
-    its = np.zeros(B, dtype=int)                              # this path's iterations only
-    ks_all = start.kinematics().take(np.arange(B))            # a copy: updated in place
-    if ks_all.first is None:
-        ks_all.first = np.full((B, t.nv, x_from.shape[1]), np.nan)
-    first = np.zeros((B, t.nv, x_from.shape[1]))
-    have = np.zeros(B, dtype=bool)
-    if tangent is not None:
-        first[:] = tangent
-        have[:] = True
-    need = np.ones(B, dtype=bool)
-    lam, h = np.zeros(B), np.ones(B)
-    stop = np.zeros(B, dtype=int)
-    active = span_s > 0
-    step_opts = opts._corrector()
-    while active.any():
-        a = np.nonzero(active)[0]
-        nf = a[need[a]]
-        if nf.size:
-            # the analogs the corrector computed with its last step, else computed here
-            new = ks_all.first[nf]
-            miss = np.nonzero(np.isnan(new).any(axis=(1, 2)))[0]
-            if miss.size:
-                m_ = nf[miss]
-                cur = Pose(mech, x_cur[m_], q[m_], rot[m_], res[m_], its[m_], cond[m_],
-                           np.zeros(m_.size, int), _ks=ks_all.take(m_))
-                new[miss] = analogs(mech, cur, second=False)[0]
-            keep = have[nf] & (cond[nf] > TANGENT_COND)
-            first[nf] = np.where(keep[:, None, None], first[nf], new)
-            have[nf] = True
-            need[nf] = False
-        hh = np.minimum(h[a], 1.0 - lam[a])
-        dx = x_from[a] + (lam[a] + hh)[:, None] * span[a] - x_cur[a]
-        dv = np.einsum("bci,bi->bc", first[a], dx)
-        dv[:, t.length_cols] /= t.scale
-        # cap the predicted change of every coordinate at path_step
-        shrink = np.minimum(1.0, opts.path_step / np.maximum(np.max(np.abs(dv), axis=1), 1e-300))
-        hh = hh * shrink
-        final = lam[a] + hh >= 1.0
-        xt = np.where(final[:, None], x_to[a], x_cur[a] + dx * shrink[:, None])
-        (pq, prot), dv = predict(mech, (q[a], rot[a]), first[a], x_cur[a], xt)
-        big = np.max(np.abs(dv), axis=1)
-        st, r, it, c, conv, ks = newton(mech, (pq, prot), step_opts, exact_cond=False)
-        jump = np.max(np.abs(mech.plan.distance(st, (pq, prot))), axis=1)
-        ok = conv & (r <= opts.rtol) & (jump <= 0.5 * big)
-        g, sub = a[ok], np.nonzero(ok)[0]
-        if g.size == B:                          # every member moved: take the arrays
-            q, rot, x_cur, res, cond, its = st[0], st[1], xt, r, c, its + it
-            ks_all = ks
-        elif g.size:
-            q[g], rot[g], x_cur[g] = st[0][sub], st[1][sub], xt[sub]
-            res[g], cond[g], its[g] = r[sub], c[sub], its[g] + it[sub]
-            ks_all.put(g, ks, sub)
-        if g.size:
-            lam[g] = np.where(final[sub], 1.0, lam[g] + hh[sub])
-            h[g] = 2.0 * hh[sub]
-            need[g] = True
-            active[g[final[sub]]] = False
-        bad, bsub = a[~ok], np.nonzero(~ok)[0]
-        if bad.size:
-            h[bad] = 0.5 * hh[bsub]
-            dead = h[bad] * span_s[bad] < min_step
-            if dead.any():
-                d, dsub = bad[dead], bsub[dead]
-                stop[d] = np.where(conv[dsub] & (r[dsub] > opts.rtol), 3, 4)
-                active[d] = False
-    # conditions left NaN (estimate ≤ FAST_COND) are computed when the pose is asked
-    pose = Pose(mech, x_cur, q, rot, res, its, cond, np.zeros(B, int), _ks=ks_all,
-                _cond_pending=True)
-    return pose, stop, first
 
 
 def branch_tangent(mech, pose: Pose, direction, opts: SolverOptions | None = None) -> np.ndarray:
@@ -515,12 +437,13 @@ def branch_tangent(mech, pose: Pose, direction, opts: SolverOptions | None = Non
     return analogs(mech, probe, second=False)[0][0]
 
 
-def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions) -> Pose:
+def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions):
     """The poses continuation starts from: the guess (or the assembly) corrected at its
-    own inputs, broadcast to B members."""
+    own inputs, broadcast to B members; and whether they are the caller's to change (not
+    the guess's own arrays)."""
     if guess is None:
         q, rot = mech.assembly()
-        x0 = q[:, mech.input_q_columns()]
+        x0 = q[:, mech.plan.input_q]
     else:
         if not isinstance(guess, Pose):
             raise MechanismError(f"guess: expected a Pose, got {type(guess).__name__}")
@@ -536,13 +459,15 @@ def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions) -> Pose:
         pose = Pose(mech, x0, guess.q, guess.rot, guess.residual, np.zeros(n, int),
                     guess._raw_condition, np.zeros(n, int), _ks=guess._ks,
                     _cond_pending=guess._cond_pending)
-        return _take_pose(pose, np.zeros(B, dtype=int)) if n == 1 and B > 1 else pose
+        if n == 1 and B > 1:
+            return _take_pose(pose, np.zeros(B, dtype=int)), True
+        return pose, False
     q = q.copy()
-    q[:, mech.input_q_columns()] = x0
-    st, res, its, cond, conv, ks = newton(mech, (q, rot.copy()), opts, exact_cond=False)
+    q[:, mech.plan.input_q] = x0
+    st, res, its, cond, conv, ks = newton(mech, (q, rot), opts, exact_cond=False)
     pose = Pose(mech, x0, st[0], st[1], res, its, cond, _status(mech, res, cond, conv, opts),
                 _ks=ks, _cond_pending=True)
-    return _take_pose(pose, np.zeros(B, dtype=int)) if n == 1 and B > 1 else pose
+    return (_take_pose(pose, np.zeros(B, dtype=int)) if n == 1 and B > 1 else pose), True
 
 
 def _settled(mech, guess: Pose, opts: SolverOptions) -> bool:
@@ -555,6 +480,12 @@ def _settled(mech, guess: Pose, opts: SolverOptions) -> bool:
         return False
     plan = mech.plan
     off = plan.offset
+    if len(guess) == 1:                        # one pose: scalar tests
+        if not (ks.step[0] <= opts.xtol * off and guess.residual[0] <= 1e-14 * off) or \
+                np.isnan(ks.first).any():
+            return False
+        a, b = guess.q[0, plan.input_q], guess.inputs[0]
+        return a.shape == np.shape(b) and bool((a == b).all())
     with np.errstate(invalid="ignore"):
         return bool(np.all(ks.step <= opts.xtol * off) and
                     np.all(guess.residual <= 1e-14 * off) and
@@ -644,17 +575,19 @@ def _solve_chunked(mech, x, guess, opts, continuation) -> Pose:
 def _solve_batch(mech, x, scalar, guess, opts, continuation) -> Pose:
     """The poses of :func:`solve` at inputs ``x`` (B, ni), without raising."""
     B = x.shape[0]
-    start = _start_pose(mech, guess, B, opts)
+    start, owned = _start_pose(mech, guess, B, opts)
     if continuation and mech.tree.chords:         # an open chain has no branch to follow
-        pose, stop, _ = _continue(mech, start, x, opts)
-        res, cond = pose.residual, pose._raw_condition
+        reached, q, rot, res, its, cond, ks, stop, _ = _walk(mech, start, x, opts, owned=owned)
         if opts.cond_limit < FAST_COND:          # the flags need the exact figures
-            _exact_condition(mech, pose.kinematics(), cond)
-        status = _status(mech, res, cond, np.ones(B, bool), opts)
-        status = np.where(start.status >= 2, start.status, np.where(stop > 0, stop, status))
-        reached = pose.inputs
-        pose = Pose(mech, x, pose.q, pose.rot, res, pose.iterations, cond, status, scalar,
-                    _ks=pose._ks, reached=reached, _cond_pending=True)
+            _exact_condition(mech, ks, cond)
+        status = _status(mech, res, cond, None, opts)
+        if B == 1:
+            if start.status[0] >= 2 or stop[0] > 0:
+                status[0] = start.status[0] if start.status[0] >= 2 else stop[0]
+        else:
+            status = np.where(start.status >= 2, start.status, np.where(stop > 0, stop, status))
+        pose = Pose(mech, x, q, rot, res, its, cond, status, scalar, _ks=ks, reached=reached,
+                    _cond_pending=True)
     else:
         q, rot = start.q.copy(), start.rot.copy()
         q[:, mech.input_q_columns()] = x
@@ -697,30 +630,22 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
     return_pose = _flag(return_pose, "return_pose")
     x, _ = _inputs_array(mech, values, "values")
     cur = solve(mech, x[0], guess, options=opts, raise_on_failure=False)
-    poses, stops = [cur], [cur.status_text[0] if cur.status[0] >= 2 else None]
-    stopped = cur.status[0] >= 2
-    tangent = None
-    for i in range(1, x.shape[0]):
-        if stopped:
-            break
-        nxt, stop, tangent = _continue(mech, cur, x[i][None], opts, tangent=tangent)
-        poses.append(nxt)
-        if stop[0]:
-            stops.append(STATUS[int(stop[0])])
-            stopped = True
-            break
-        stops.append(None)
-        cur = nxt
-    n = len(poses)
-    pose = _cat_poses(poses, keep=return_pose and n <= KEEP_STATE)
+    pose, stops = _sweep_rows(mech, cur, x, opts)
+    n = len(pose)
+    keep = return_pose and n <= KEEP_STATE
     reached, pose.inputs = pose.inputs, x[:n].copy()
-    cond = pose.condition if opts.cond_limit < FAST_COND else pose._raw_condition
+    raw = pose._raw_condition.copy()
+    exact = pose.condition              # the table's: one batched SVD from the kept twists
+    if not keep:
+        pose._ks = None
+    cond = exact if opts.cond_limit < FAST_COND else raw
     pose.status = _status(mech, pose.residual, cond, np.ones(n, bool), opts)
     status = [s if s is not None else STATUS[int(c)] for s, c in zip(stops, pose.status)]
-    df = pose.table()
-    df["status"] = status
+    cols = pose._columns()
+    cols["status"] = status
     for k, lab in enumerate(mech.input_labels()):
-        df[f"reached:{lab}"] = reached[:, k]
+        cols[f"reached:{lab}"] = reached[:, k]
+    df = pd.DataFrame(cols)
     if n < x.shape[0]:
         rest = pd.DataFrame({f"input:{lab}": x[n:, k] for k, lab in enumerate(mech.input_labels())})
         rest["status"] = "not reached"
@@ -728,6 +653,53 @@ def sweep(mech, values, guess: Pose | None = None, *, options: SolverOptions | N
     if return_pose:
         return df, _take_pose(pose, np.nonzero([s is None for s in stops])[0])
     return df
+
+
+def _sweep_rows(mech, cur: Pose, x, opts: SolverOptions):
+    """The poses of a sweep's rows from its solved first row ``cur`` (one pose at
+    ``x[0]``): row i by continuation from row i − 1 to ``x[i]``, its tangent handed to
+    the next row, until a row stops; all rows in one call of the compiled kernel
+    :func:`closure.solve_kernels.drive`.  Returns the rows' poses (``inputs``: where
+    each stands; its kinematic state kept) and per row None or why it stopped."""
+    plan = mech.plan
+    stops = [cur.status_text[0] if cur.status[0] >= 2 else None]
+    n_req = x.shape[0]
+    if cur.status[0] >= 2 or n_req == 1:
+        return cur, stops
+    ks = cur.kinematics()
+    nv, ni = plan.nv, x.shape[1]
+
+    def rows(a, shape):
+        out = np.empty((n_req,) + shape)
+        out[0] = a[0]
+        return out
+    q, rot = rows(cur.q, (plan.nq,)), rows(cur.rot, (plan.ns, 3, 3))
+    A, link = rows(ks.A, (plan.nj, 4, 4)), rows(ks.link, (plan.nl, 4, 4))
+    fa, r, S = rows(ks.frame_a, (plan.nj, 4, 4)), rows(ks.r, (plan.chords.size, 6)), \
+        rows(ks.S, (nv, 6))
+    first = rows(np.full((1, nv, ni), np.nan) if ks.first is None else ks.first, (nv, ni))
+    res, cond = rows(cur.residual, ()), rows(cur._raw_condition, ())
+    step = rows(np.full(1, np.nan) if ks.step is None else ks.step, ())
+    x_cur = rows(cur.inputs, (ni,))
+    its = np.zeros(n_req, dtype=np.int64)
+    its[0] = cur.iterations[0]
+    stop = np.zeros(n_req, dtype=np.int64)
+    k = plan._kernels
+    with _serial_blas_for(plan, plan._ucols.size):
+        n = k.drive(k.SWEEP, *plan.packed, _NO_X, _arr(x), q, rot, A,
+                    link, fa, r, S, first, res, cond, step, its, stop, np.zeros((1, nv, ni)),
+                    False, _path_options(opts, 1e-10), min(opts.maxiter, 8),
+                    _expected_rank(mech), plan._ucols, plan._icols, x_cur)
+    if n < 0:                                   # row −n − 1 lies too far: raise, as _continue
+        _check_path(x_cur[-n - 2:-n - 1], x[-n - 1:-n], plan.input_scale)
+    stops += [STATUS[int(c)] if c else None for c in stop[1:n]]
+    status = np.zeros(n, dtype=int)
+    status[0] = cur.status[0]
+    ks_rows = KinematicState(link[:n], fa[:n], A[:n], r[:n], S[:n], plan.carrier, plan.deps,
+                             first[:n], None if ks.step is None else step[:n])
+    pose = Pose(mech, x_cur[:n], q[:n], rot[:n], res[:n], its[:n], cond[:n], status,
+                _ks=ks_rows, _cond_pending=n > 1 or cur._cond_pending)
+    return pose, stops
 
 
 def _ks_cat(kss) -> KinematicState:

@@ -4,9 +4,9 @@
 solver and :mod:`closure.kinematics`: link poses, joint frames and matrices, the
 loop residuals and the world-frame unit twists of the velocity coordinates, all
 batched.  :class:`Plan` is built once per compiled mechanism (index arrays, the
-constant joint frames stacked per role, the joint kinds grouped) so that one
-evaluation is a fixed, short sequence of batched numpy operations whatever the
-number of joints: no per-joint Python work in the solver's inner loop.
+constant joint frames stacked per role, packed for the compiled kernels of
+:mod:`closure.solve_kernels`) so that one evaluation is one kernel call whatever the
+number of joints or poses: no per-joint Python work in the solver's inner loop.
 """
 from __future__ import annotations
 
@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .frames import _inverse, _log_se3, _log_so3, _EYE3
+from .frames import _inverse, _log_se3
 
 __all__ = ["KinematicState", "Plan"]
 
@@ -113,35 +113,21 @@ class KinematicState:
 _FIELDS = ("link", "frame_a", "A", "r", "S", "carrier", "deps", "first", "step")
 
 
-def _rigid_inverse(T):
-    """Inverse of rigid transforms ``(..., 4, 4)`` (unchecked)."""
-    out = np.zeros(T.shape)
-    Rt = np.swapaxes(T[..., :3, :3], -1, -2)
-    out[..., :3, :3] = Rt
-    out[..., :3, 3] = -(Rt @ T[..., :3, 3:4])[..., 0]
-    out[..., 3, 3] = 1.0
-    return out
-
-
-def _exp_so3(w):
-    """Rotation matrices of rotation vectors ``(..., 3)`` (unchecked; series near 0, as
-    :func:`closure.exp_so3`)."""
-    th2 = np.einsum("...i,...i->...", w, w)
-    small = th2 < 1e-8
-    ths = np.sqrt(np.where(small, 1.0, th2))
-    a = np.where(small, 1 - th2 / 6 + th2 ** 2 / 120, np.sin(ths) / ths)
-    b = np.where(small, 0.5 - th2 / 24 + th2 ** 2 / 720, (1 - np.cos(ths)) / ths ** 2)
-    K = np.zeros(w.shape[:-1] + (3, 3))
-    x, y, z = w[..., 0], w[..., 1], w[..., 2]
-    K[..., 0, 1], K[..., 0, 2] = -z, y
-    K[..., 1, 0], K[..., 1, 2] = z, -x
-    K[..., 2, 0], K[..., 2, 1] = -y, x
-    return _EYE3 + a[..., None, None] * K + b[..., None, None] * (K @ K)
+def _arr(a, dtype=float) -> np.ndarray:
+    """``a`` as a C-contiguous, writable array of ``dtype`` (copied only when it is not):
+    the compiled kernels take one array type per argument, so a read-only or strided
+    argument would compile them again."""
+    a = np.ascontiguousarray(a, dtype=dtype)
+    return a if a.flags.writeable else a.copy()
 
 
 class Plan:
     """Index arrays and stacked constants of a compiled mechanism, and the batched
     evaluation of its kinematic state (built once per compiled tree).
+
+    The constants are packed once for the compiled kernels of
+    :mod:`closure.solve_kernels` (``packed``): every evaluation, step, Jacobian and
+    distance below is one call of a kernel that loops over the batch.
 
     Parameters
     ----------
@@ -151,77 +137,40 @@ class Plan:
     """
 
     def __init__(self, mech, tree):
+        from . import lstsq, solve_kernels
         from .joints import _U_MID
+        self._lstsq = lstsq
         joints = mech.joints
         nj = len(joints)
         t = tree
-        self.nj, self.nv, self.nl = nj, t.nv, len(t.links)
+        self.nj, self.nv, self.nl, self.nq, self.ns = nj, t.nv, len(t.links), t.nq, t.ns
         self.scale, self.centre = t.scale, t.centre
         self._u_mid = _U_MID
         fa = np.array([j.frame_a for j in joints]).reshape(nj, 4, 4)
         fb = np.array([j.frame_b for j in joints]).reshape(nj, 4, 4)
         fai, fbi = _inverse(fa), _inverse(fb)          # batched: one call for all joints
         self.frames_a = fa
-        # joint matrices: one template (identity) and the index arrays of each kind
-        self._template = np.broadcast_to(np.eye(4), (nj, 4, 4)).copy()
-        kinds = [j.kind for j in joints]
-
-        def idx(ks):
-            return np.array([j.index for j in joints if j.kind in ks], dtype=int)
-
-        def qcol(ks, k=0):
-            return np.array([t.q_offset[j.index] + k for j in joints if j.kind in ks], dtype=int)
-
-        self.rot_j, self.rot_q = idx("RCH"), qcol("RCH")          # Rz(q) rotations
-        self.slide_j = idx("PCH")                                   # Tz slides
-        self.slide_q = np.array([t.q_offset[j.index] + (1 if j.kind == "C" else 0)
-                                 for j in joints if j.kind in "PCH"], dtype=int)
-        self.slide_pitch = np.array([j.pitch if j.kind == "H" else 1.0
-                                     for j in joints if j.kind in "PCH"])
-        self.has_pitch = bool(np.any([k == "H" for k in kinds]))
-        self.s_j = idx("S")
-        self.s_rot = np.array([t.s_index[j] for j in self.s_j], dtype=int)
-        self.u_j, self.u_q0, self.u_q1 = idx("U"), qcol("U", 0), qcol("U", 1)
-        # tree: per non-ground link (BFS order), its parent joint and the constants
+        # tree: per non-ground link (BFS order), the constants either side of its joint
         order = list(t.order[1:])
         tj = np.array([t.parent_joint[li] for li in order], dtype=int)
         fwd = np.array([t.forward[li] for li in order], dtype=bool)
-        self.tree_j = tj
-        self.tree_back = np.nonzero(~fwd)[0]
-        self.all_forward = bool(fwd.all())
         self.tree_left = np.where(fwd[:, None, None], fa[tj], fb[tj]) if nj else fa[:0]
         self.tree_right = np.where(fwd[:, None, None], fbi[tj], fai[tj]) if nj else fa[:0]
-        # levels of the tree: links of equal depth are composed in one product
-        depth = np.zeros(self.nl, dtype=int)
-        parent_link = np.zeros(self.nl, dtype=int)
-        for li in order:
-            j = joints[t.parent_joint[li]]
-            p = t.link_index[j.link_a] if t.forward[li] else t.link_index[j.link_b]
-            parent_link[li] = p
-            depth[li] = depth[p] + 1
-        pos = {li: k for k, li in enumerate(order)}
-        self.levels = []
-        for d in range(1, int(depth.max(initial=0)) + 1):
-            ch = np.array([li for li in order if depth[li] == d], dtype=int)
-            self.levels.append((ch, parent_link[ch], np.array([pos[li] for li in ch], dtype=int)))
         self.joint_link_a = t.joint_link_a
         # loops: the chord joints
         ch = np.array(t.chords, dtype=int)
         self.chords = ch
         self.chord_fbi = fbi[ch]
         self.chord_link_b = np.array([t.link_index[joints[c].link_b] for c in ch], dtype=int)
-        # columns: joint, twist in that joint's frame, carrying link, U prefix columns
-        col_joint, xi, carrier, deps, u_cols = [], [], [], [], []
+        # columns: joint, twist in that joint's frame, carrying link
+        col_joint, xi, carrier, deps = [], [], [], []
         q0 = np.zeros((1, max(t.nq, 1)))
         for j in joints:
             for k, (prefix, x, dep) in enumerate(j.columns(q0[:, t.q_offset[j.index]:])):
-                c = t.v_offset[j.index] + k
                 col_joint.append(j.index)
                 xi.append(x)
                 carrier.append(t.link_index[j.link_a])
                 deps.append(tuple(t.v_offset[j.index] + d for d in dep))
-                if prefix is not None:
-                    u_cols.append(c)
         self.col_joint = np.array(col_joint, dtype=int)
         xi = np.array(xi, dtype=float).reshape(-1, 6)
         # each unit twist: one axis k_w (weight s_w) in ω, one axis k_v (weight s_v) in v
@@ -232,12 +181,9 @@ class Plan:
         self.kv = np.where(nz_v.any(1), np.argmax(nz_v, 1), 2)
         self.sw = xi[np.arange(len(xi)), 3 + self.kw]
         self.sv = xi[np.arange(len(xi)), self.kv]
-        self.w_unit = bool(np.all(self.sw == 1.0))
-        self.v_cols = np.nonzero(self.sv != 0)[0]
         self.carrier = np.array(carrier, dtype=int)
         self.carrier.flags.writeable = False
         self.deps = tuple(deps)
-        self.u_cols = np.array(u_cols, dtype=int)
         # dimensionless columns: length coordinates multiplied by the scale
         self.all_cols = np.arange(t.nv)
         self.col_scale = np.ones(t.nv)
@@ -249,7 +195,6 @@ class Plan:
         for arr in (self.input_v, self.input_q, self.unknown):
             arr.flags.writeable = False
         self.input_scale = np.where(np.isin(self.input_v, t.length_cols), t.scale, 1.0)
-        self.solve_cols = np.concatenate([self.unknown, self.input_v])   # step | analogs
         self.input_cscale = self.col_scale[self.input_v]
         self.unknown_cscale = self.col_scale[self.unknown]
         #: 1 + |centre| / scale: digits of the coordinates lost to the world origin
@@ -263,7 +208,6 @@ class Plan:
         M[:3, :3] /= L
         M[:3, 3:] = -np.array([[0, -c[2], c[1]], [c[2], 0, -c[0]], [-c[1], c[0], 0]]) / L
         self.row_map = M
-        self.row_map_t = np.ascontiguousarray(M.T)
         # velocity coordinate → stored coordinate, and the spherical joints' columns
         scal_v, scal_q, s_cols = [], [], []
         for j in joints:
@@ -277,57 +221,40 @@ class Plan:
         self.scal_q = np.array(scal_q, dtype=int)
         self.s_cols = np.array(s_cols, dtype=int).reshape(-1, 3)
         self.s_order = np.array([t.s_index[j.index] for j in joints if j.kind == "S"], dtype=int)
+        self._kernels = solve_kernels
+        #: the kernels' view of these constants: (PI, PF, PM) of closure.solve_kernels.pack
+        self.packed = solve_kernels.pack(self, mech, t)
+        self._ucols = np.array(self.unknown, dtype=np.int64)      # writable copies: the
+        self._icols = np.array(self.input_v, dtype=np.int64)      # kernels' one array type
 
     # ------------------------------------------------------------------ evaluation
+    def _state_arrays(self, q, rot, name="state"):
+        """``q (B, nq)`` and ``rot (B, ns, 3, 3)`` as contiguous float arrays, checked
+        (the kernels do not check bounds)."""
+        q = _arr(q)
+        rot = _arr(rot)
+        if q.ndim != 2 or q.shape[1] != self.nq or rot.shape != (q.shape[0], self.ns, 3, 3):
+            from .errors import MechanismError
+            raise MechanismError(f"{name}: expected q ({q.shape[0] if q.ndim else 'B'}, "
+                                 f"{self.nq}) and rot (B, {self.ns}, 3, 3), got q "
+                                 f"{q.shape} and rot {rot.shape}")
+        return q, rot
+
     def joint_matrices(self, q, rot) -> np.ndarray:
         """``A(q)`` of every joint ``(B, njoints, 4, 4)``."""
-        B = q.shape[0]
-        A = np.empty((B, self.nj, 4, 4))
-        A[:] = self._template
-        if self.rot_j.size:
-            th = q[:, self.rot_q]
-            c, s = np.cos(th), np.sin(th)
-            rj = self.rot_j
-            A[:, rj, 0, 0] = c
-            A[:, rj, 0, 1] = -s
-            A[:, rj, 1, 0] = s
-            A[:, rj, 1, 1] = c
-        if self.slide_j.size:
-            A[:, self.slide_j, 2, 3] = q[:, self.slide_q] * self.slide_pitch if self.has_pitch \
-                else q[:, self.slide_q]
-        if self.s_j.size:
-            A[:, self.s_j, :3, :3] = rot[:, self.s_rot]
-        if self.u_j.size:
-            A[:, self.u_j, :3, :3] = _rz(q[:, self.u_q0]) @ self._u_mid[:3, :3] @ \
-                _rz(q[:, self.u_q1])
-        return A
+        return self.evaluate(q, rot, twists=False).A
 
     def evaluate(self, q, rot, twists: bool = True) -> KinematicState:
         """The kinematic state of states ``q (B, nq)``, ``rot (B, ns, 3, 3)``."""
+        q, rot = self._state_arrays(q, rot)
         B = q.shape[0]
-        A = self.joint_matrices(q, rot)
+        A = np.empty((B, self.nj, 4, 4))
         link = np.empty((B, self.nl, 4, 4))
-        link[:, 0] = np.eye(4)
-        if self.tree_j.size:
-            Ae = A[:, self.tree_j]
-            if not self.all_forward:
-                b = self.tree_back
-                Ae[:, b] = _rigid_inverse(Ae[:, b])
-            rel = self.tree_left @ Ae @ self.tree_right
-            for k, (ch, par, pos) in enumerate(self.levels):
-                link[:, ch] = rel[:, pos] if k == 0 else link[:, par] @ rel[:, pos]
-        frame_a = link[:, self.joint_link_a] @ self.frames_a
-        ch = self.chords
-        if ch.size:
-            G = frame_a[:, ch] @ A[:, ch] @ self.chord_fbi @ \
-                _rigid_inverse(link[:, self.chord_link_b])
-            c = self.centre
-            G[..., :3, 3] += G[..., :3, :3] @ c - c
-            r = _loop_log(G)
-        else:
-            r = np.zeros((B, 0, 6))
-        S = self.twists(q, frame_a) if twists else None
-        return KinematicState(link, frame_a, A, r, S, self.carrier, self.deps)
+        fa = np.empty((B, self.nj, 4, 4))
+        r = np.empty((B, self.chords.size, 6))
+        S = np.empty((B, self.nv, 6))
+        self._kernels.evaluate_batch(*self.packed, q, rot, A, link, fa, r, S)
+        return KinematicState(link, fa, A, r, S if twists else None, self.carrier, self.deps)
 
     def twists(self, q, frame_a) -> np.ndarray:
         """World twists ``(B, nv, 6)`` of the velocity coordinates.
@@ -336,33 +263,48 @@ class Plan:
         its translation part (``R``, ``P``, ``C``, ``H`` about or along z, the S joint's
         x, y, z), so ``ω = w_c · R e_k`` and ``v = s_c · R e_j + p × ω``: a gather of
         frame columns instead of a product."""
-        Rt = np.swapaxes(frame_a[..., :3, :3], -1, -2)           # rows of Rt: columns of R
+        q = _arr(q)
+        frame_a = _arr(frame_a)
+        if q.ndim != 2 or q.shape[1] != self.nq or frame_a.shape != (q.shape[0], self.nj, 4, 4):
+            from .errors import MechanismError
+            raise MechanismError(f"twists: expected q (B, {self.nq}) and frame_a (B, "
+                                 f"{self.nj}, 4, 4), got {q.shape} and {frame_a.shape}")
         S = np.empty((q.shape[0], self.nv, 6))
-        w = Rt[:, self.col_joint, self.kw]                       # (B, nv, 3)
-        if self.u_cols.size:                                      # second pin of U joints
-            pre = _rz(q[:, self.u_q0]) @ self._u_mid[:3, :3]     # (B, nU, 3, 3)
-            w[:, self.u_cols] = (frame_a[:, self.u_j, :3, :3] @ pre[..., 2:3])[..., 0]
-        if not self.w_unit:
-            w *= self.sw[:, None]
-        p = frame_a[..., :3, 3][:, self.col_joint]
-        S[..., 3:] = w
-        v = S[..., :3]
-        v[..., 0] = p[..., 1] * w[..., 2] - p[..., 2] * w[..., 1]
-        v[..., 1] = p[..., 2] * w[..., 0] - p[..., 0] * w[..., 2]
-        v[..., 2] = p[..., 0] * w[..., 1] - p[..., 1] * w[..., 0]
-        if self.v_cols.size:
-            v[:, self.v_cols] += Rt[:, self.col_joint[self.v_cols], self.kv[self.v_cols]] * \
-                self.sv[self.v_cols, None]
+        self._kernels.twists_batch(*self.packed[:2], q, frame_a, S)
         return S
 
     def scaled_jacobian(self, S, cols) -> np.ndarray:
         """Dimensionless loop Jacobian ``(B, 6·nloops, len(cols))`` of columns ``cols``:
         twists about the mechanism's centre (``v + ω × c``), translation rows divided by
-        the length scale, length columns multiplied by it, one product with the constant
-        row map and the loop coefficients."""
-        Ss = S[:, cols] @ self.row_map_t                          # (B, k, 6)
-        J = np.einsum("lc,bcs->blsc", self.loop_scaled[:, cols], Ss)
-        return J.reshape(J.shape[0], -1, len(cols))
+        the length scale, length columns multiplied by it (the constant row map and the
+        loop coefficients)."""
+        S = _arr(S)
+        cols = np.array(cols, dtype=np.int64).reshape(-1)      # writable: one array type
+        if S.ndim != 3 or S.shape[1:] != (self.nv, 6) or (cols.size and (
+                cols.min() < 0 or cols.max() >= self.nv)):
+            from .errors import MechanismError
+            raise MechanismError(f"scaled_jacobian: expected S (B, {self.nv}, 6) and columns "
+                                 f"below {self.nv}, got {S.shape}")
+        J = np.empty((S.shape[0], 6 * self.chords.size, cols.size))
+        self._kernels.scaled_jacobian_batch(*self.packed[:2], S, cols, J)
+        return J
+
+    def condition(self, S, idx) -> np.ndarray:
+        """Condition numbers ``s_max / s_rank`` (SVD, expected rank) of the dimensionless
+        Jacobian of the unknowns at the states ``idx`` of twists ``S`` (B, nv, 6) (the
+        rank must be known: :func:`closure.lstsq._expected_rank`)."""
+        lsq = self._lstsq
+        S = _arr(np.asarray(S)[idx])
+        if S.ndim != 3 or S.shape[1:] != (self.nv, 6):
+            from .errors import MechanismError
+            raise MechanismError(f"condition: expected S (B, {self.nv}, 6), got {S.shape}")
+        m, n = 6 * self.chords.size, self._ucols.size
+        if m == 0 or n == 0:
+            return np.ones(S.shape[0])
+        J = np.empty((S.shape[0], m, n))
+        self._kernels.scaled_jacobian_batch(*self.packed[:2], S, self._ucols, J)
+        with lsq._serial_blas_entries(m * n):  # numpy's SVD without the vectors
+            return lsq._cond_of(np.linalg.svd(J, compute_uv=False), self.rank)
 
     def scaled_residual(self, r) -> np.ndarray:
         """Dimensionless loop residual ``(B, 6·nloops)``."""
@@ -373,27 +315,25 @@ class Plan:
 
     def apply(self, q, rot, dv_scaled):
         """New ``(q, rot)`` from a dimensionless step ``(B, nv)`` over all coordinates."""
-        q = q.copy()
-        if self.scal_v.size:
-            q[:, self.scal_q] += dv_scaled[:, self.scal_v] * self.col_scale[self.scal_v]
-        if self.s_cols.size:
-            rot = rot.copy()
-            rot[:, self.s_order] = _exp_so3(dv_scaled[:, self.s_cols]) @ rot[:, self.s_order]
-        else:
-            rot = rot.copy()
-        return q, rot
+        q, rot = self._state_arrays(q, rot)
+        dv = _arr(dv_scaled)
+        if dv.shape != (q.shape[0], self.nv):
+            from .errors import MechanismError
+            raise MechanismError(f"apply: expected a step ({q.shape[0]}, {self.nv}), got "
+                                 f"{dv.shape}")
+        q_out, rot_out = np.empty_like(q), np.empty_like(rot)
+        self._kernels.apply_batch(*self.packed[:2], q, rot, dv, q_out, rot_out)
+        return q_out, rot_out
 
     def distance(self, a, b) -> np.ndarray:
         """Dimensionless distance per velocity coordinate between states ``(B, nv)``."""
-        out = np.zeros((a[0].shape[0], self.nv))
-        if self.scal_v.size:
-            out[:, self.scal_v] = (a[0][:, self.scal_q] - b[0][:, self.scal_q]) / \
-                self.col_scale[self.scal_v]
-        if self.s_cols.size:
-            so = self.s_order
-            rel = a[1][:, so] @ np.swapaxes(b[1][:, so], -1, -2)
-            rl = _rot_log(rel)
-            out[:, self.s_cols] = _log_so3(rel) if rl is None else rl[0]
+        qa, ra = self._state_arrays(*a)
+        qb, rb = self._state_arrays(*b)
+        if qa.shape != qb.shape:
+            from .errors import MechanismError
+            raise MechanismError(f"distance: batches of {qa.shape[0]} and {qb.shape[0]} states")
+        out = np.empty((qa.shape[0], self.nv))
+        self._kernels.distance_batch(*self.packed[:2], qa, ra, qb, rb, out)
         return out
 
 

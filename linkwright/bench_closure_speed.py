@@ -7,8 +7,9 @@ One pose (``Mechanism.solve`` of one input from a solved nearby pose), one sweep
 positions with its memory per position, each against an honest baseline measured in
 the same run: scipy ``least_squares(method="lm")`` per pose on the engine's own
 dimensionless loop residual with its analytic Jacobian, and a vectorised Newton on the
-RSSR's closed-form one-unknown equation.  Times are CPU times (``time.process_time``),
-medians of repeats.
+RSSR's closed-form one-unknown equation; and the first call of the solver's compiled
+kernels (numba: compiled once per installation, then loaded from the cache).  Times are
+CPU times (``time.process_time``), medians of repeats.
 """
 from __future__ import annotations
 
@@ -113,11 +114,22 @@ def bench_closure_speed(quick: bool = False) -> list[str]:
                    f"{t_lm * us:.0f} | "
                    f"{t_lm / t_one:.2g}× | "
                    f"{t_sw * us:.0f} | {res:.1e} |")
+    # first call of the solver's compiled kernels in a new process: compiled (empty numba
+    # cache), then loaded from the cache
+    from linkwright.bench import first_call
+    t_compile, t_load = first_call(
+        "import time\nfrom linkwright.references import rssr\nt0 = time.perf_counter()\n"
+        "m, _ = rssr(0.2, 1)\np = m.solve(0.1); p.condition; m.sweep([0.0, 0.05])\n"
+        "t = time.perf_counter() - t0")
     out += ["", "One pose: `solve` of one input 0.02–0.14 rad from a solved pose (continuation: "
-            "corrector on the guess, predictor, corrector); its condition number is computed "
-            "when first read (third column); `continuation=False`: one Newton correction "
-            "from the guess, as the lm baseline does.  Sweep step: `sweep` over inputs 0.02 rad apart, "
-            "per row, table included.  Target ≤ 100 µs.", ""]
+            "predictor, corrector, in the compiled kernel `closure.solve_kernels.drive`); its "
+            "condition number is computed when first read (third column: one SVD); "
+            "`continuation=False`: one Newton correction from the guess, as the lm baseline "
+            "does (its residual and Jacobian evaluated by the same compiled kernels).  Sweep "
+            "step: `sweep` over inputs 0.02 rad apart, per row, table included.  Target ≤ 100 µs.",
+            "", f"First call of the solver kernels in a new installation (an RSSR built, "
+            f"solved, its condition read and a sweep): {t_compile:.1f} s compiling them, "
+            f"{t_load:.2f} s in later processes (numba's cache, numba's import included).", ""]
     # ------------------------------------------------------------ RSSR batch
     m, psi0 = rssr(phi0, 1)
     col = m.tree.q_offset[m.joint("out").index]

@@ -1074,8 +1074,8 @@ def _hs_family(screws, pitch, azimuths, frame, tol, kind):
         if scale[i] == 0:                       # the RS condition vanishes on the circle
             out.append(SynthesisError(_RS_DEGENERATE))
             continue
-        z = np.concatenate([rs_beta[circle == i, None], rs_th[circle == i]], 1)
-        found = _hs_core(R, t, *circles[i], p / L, z)
+        starts = np.concatenate([rs_beta[circle == i, None], rs_th[circle == i]], 1)
+        found = _hs_core(R, t, *circles[i], p / L, starts)
         out.append([])
         for beta, g, C, c, th in found:
             G = _rot(g, th)

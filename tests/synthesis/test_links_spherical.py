@@ -287,6 +287,15 @@ def test_generating_hs_link_comes_back_at_its_azimuth(kind):
         err = min(rs_error(ch, lk, L, kind) for lk in links)
         assert err < TOL, err
         assert verify(links, ch["T"]).max() <= 1e-9
+        for lk in links:              # the sphere's side holds no joint value, the helix's
+            sphere = (lk.moving_angles, lk.moving_slides) if kind == "HS" else \
+                (lk.fixed_angles, lk.fixed_slides)
+            helix = (lk.fixed_angles, lk.fixed_slides) if kind == "HS" else \
+                (lk.moving_angles, lk.moving_slides)
+            for v in sphere:
+                np.testing.assert_array_equal(v, np.zeros(4))
+            assert helix[0].shape == (4,) and helix[0][0] == 0
+            np.testing.assert_allclose(helix[1], p * helix[0], rtol=1e-12, atol=1e-15)
 
 
 def test_hs_pitch_zero_is_rs_and_small_pitch_is_near_it():

@@ -27,7 +27,7 @@ from closure.frames import _cross, rotation
 from .dualquat import dq_conj, dq_from_matrix, dq_mul, qconj, qmul
 from .errors import SynthesisError
 from .screw import Line, Screw
-from .validate import number, screw, task_scale, unit, vec3
+from .validate import number, screw, task_scales, unit, vec3
 
 __all__ = ["RRLink", "rr_links", "rotation_axis_between"]
 
@@ -339,11 +339,9 @@ def _rr_solve(s12: list, s13: list, T2: np.ndarray, T3: np.ndarray, tol: float) 
     """
     n = len(s12)
     err = [None] * n
-    scales = [task_scale([T2[p], T3[p]], [s12[p].axis, s13[p].axis],
-                         [s12[p].point, s13[p].point]) for p in range(n)]
-    c = np.array([x[0] for x in scales]).reshape(n, 3)
-    L = np.array([x[1] for x in scales])
-    reach = np.array([x[2] for x in scales])
+    axes = np.array([[a.axis, b.axis] for a, b in zip(s12, s13)]).reshape(n, 2, 3)
+    points = np.array([[a.point, b.point] for a, b in zip(s12, s13)]).reshape(n, 2, 3)
+    c, L, reach = task_scales(np.stack([T2, T3], 1).reshape(n, 2, 4, 4), axes, points)
     w = np.array([[a.angle, b.angle] for a, b in zip(s12, s13)]).reshape(n, 2)
     slide = np.array([[a.slide, b.slide] for a, b in zip(s12, s13)]).reshape(n, 2)
     eye = np.broadcast_to(np.eye(4), T2.shape)
@@ -380,7 +378,7 @@ def _rr_solve(s12: list, s13: list, T2: np.ndarray, T3: np.ndarray, tol: float) 
     X3 = np.concatenate([N3[None], E[:, :, 1] @ N3]).reshape(3 * n, 4, 4)
     Q2, Q3 = dq_from_matrix(np.stack([X2, X3]))
     a, b, cc = _study(_ONE, Q2[:n]), _study(_ONE, Q3[:n]), _study(Q2[:n], Q3[:n])
-    axes_par = np.array([abs(abs(s.axis @ t.axis) - 1) < 1e-10 for s, t in zip(s12, s13)])
+    axes_par = np.abs(np.abs(np.einsum("pi,pi->p", axes[:, 0], axes[:, 1])) - 1) < 1e-10
     # Study products are the pitches of S12, S13, S23 (normalised lengths): round-off
     # makes them ~ε·reach/L, so "zero" is relative to that
     zero = 1e-14 * (reach / L)

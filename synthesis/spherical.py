@@ -62,7 +62,7 @@ import numpy as np
 from .binary import BinaryLink, _cross, _residuals, _rot, _signed_angle, _task
 from .errors import SynthesisError
 from .screw import Line
-from .validate import array, number, screws as _screws, unit
+from .validate import array, number, screws as _screws, task_scales, unit
 from .verify import pose_errors
 
 __all__ = ["task_frame", "azimuth_of", "rs_links_at", "sr_links", "ps_links", "sp_links", "hs_links", "sh_links",
@@ -452,34 +452,6 @@ class _SubTasks:
     error: np.ndarray
 
 
-def _task_scales(T, U, P):
-    """:func:`synthesis.validate.task_scale` of S tasks at once.
-
-    Parameters
-    ----------
-    T : ndarray, shape (S, n, 4, 4)
-        Each task's positions.
-    U, P : ndarray, shape (S, k, 3), k ≥ 1
-        Unit directions and points of each task's screw axes.
-
-    Returns
-    -------
-    centre : ndarray (S, 3)
-    extent, reach : ndarray (S,)
-    """
-    c = P.mean(1)
-    Q = np.eye(3) - U[..., :, None] * U[..., None, :]                   # projectors ⊥ axes
-    b = np.einsum("snij,snj->si", Q, P - c[:, None])
-    c = c + np.einsum("sij,sj->si", np.linalg.pinv(Q.sum(1), rcond=1e-8, hermitian=True), b)
-    t = T[..., :3, 3] + np.einsum("snij,sj->sni", T[..., :3, :3], c) - c[:, None]
-    d = np.einsum("snij,snj->sni", Q, P - c[:, None])
-    extent = np.maximum(np.abs(t).max((1, 2)), np.abs(d).max((1, 2)))
-    reach = np.maximum(extent, np.abs(c).max(1))
-    zero = extent == 0
-    extent = np.where(zero, np.where(reach > 0, reach, 1.0), extent)
-    return c, extent, np.where(zero, extent, reach)
-
-
 def _subtasks(T, axes, points, subsets, name: str = "screws") -> _SubTasks:
     """The normalised sub-tasks of the task ``T (N, 4, 4)`` (screw ``axes``, ``points``
     (N − 1, 3) of S₁₂ … S₁N) through the positions ``subsets (S, n)`` (each starting at
@@ -488,7 +460,7 @@ def _subtasks(T, axes, points, subsets, name: str = "screws") -> _SubTasks:
     subsets = np.asarray(subsets, int)
     S, n = subsets.shape
     Ts = T[subsets]
-    c, L, reach = _task_scales(Ts, axes[subsets[:, 1:] - 1], points[subsets[:, 1:] - 1])
+    c, L, reach = task_scales(Ts, axes[subsets[:, 1:] - 1], points[subsets[:, 1:] - 1])
     J, K = (np.array(x, int) for x in zip(*[(j, k) for j in range(n) for k in range(j)]))
     rot, pos = pose_errors(Ts[:, J], Ts[:, K], reach[:, None])
     same = np.maximum(rot, pos) < 1e-12

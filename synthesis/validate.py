@@ -17,7 +17,7 @@ from closure.checks import real_array, real_number
 from .errors import SynthesisError
 
 __all__ = ["array", "vec3", "unit", "number", "integer", "transform", "screw", "screws", "line",
-           "task_scale", "ROTATION_TOL"]
+           "task_scale", "task_scales", "ROTATION_TOL"]
 
 #: tolerance of the orthonormality and last-row checks of transforms (dimensionless)
 ROTATION_TOL = 1e-9
@@ -156,22 +156,44 @@ def task_scale(transforms, axes=(), points=()) -> tuple[np.ndarray, float, float
     A task without any length (pure rotations about axes through the origin) is
     scale-free: both sizes are then 1.
     """
-    T = np.asarray(transforms, float).reshape(-1, 4, 4)
-    U = np.asarray(axes, float).reshape(-1, 3)
-    P = np.asarray(points, float).reshape(-1, 3)
-    c = P.mean(0) if len(P) else np.zeros(3)
-    if len(U):
-        Q = np.eye(3) - U[:, :, None] * U[:, None, :]                    # projectors ⊥ axes
-        A = Q.sum(0)
-        b = np.einsum("nij,nj->i", Q, P - c)
-        c = c + np.linalg.pinv(A, rcond=1e-8, hermitian=True) @ b
+    T = np.asarray(transforms, float).reshape(1, -1, 4, 4)
+    U = np.asarray(axes, float).reshape(1, -1, 3)
+    P = np.asarray(points, float).reshape(1, -1, 3)
+    c, extent, reach = task_scales(T, U, P)
+    return c[0], float(extent[0]), float(reach[0])
+
+
+def task_scales(transforms, axes, points) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`task_scale` of S tasks at once.
+
+    Parameters
+    ----------
+    transforms : numpy.ndarray, shape (S, n, 4, 4)
+        Each task's displacements.
+    axes, points : numpy.ndarray, shape (S, k, 3)
+        Unit directions and points of each task's screw axes (k may be 0).
+
+    Returns
+    -------
+    centre : numpy.ndarray (S, 3)
+    extent, reach : numpy.ndarray (S,)
+    """
+    T, U, P = transforms, axes, points
+    S = T.shape[0]
+    c = P.mean(1) if P.shape[1] else np.zeros((S, 3))
+    if U.shape[1]:
+        Q = np.eye(3) - U[..., :, None] * U[..., None, :]               # projectors ⊥ axes
+        b = np.einsum("snij,snj->si", Q, P - c[:, None])
+        A = np.linalg.pinv(Q.sum(1), rcond=1e-8, hermitian=True)
+        c = c + np.einsum("sij,sj->si", A, b)
+        # distances of the axes (lines, whatever point the user gave) from the centre
+        d = np.einsum("snij,snj->sni", Q, P - c[:, None])
+    else:
+        d = P - c[:, None]
     # translations of C T C⁻¹ with C the shift by −c: t + R c − c
-    t = T[:, :3, 3] + np.einsum("nij,j->ni", T[:, :3, :3], c) - c
-    # distances of the axes (lines, whatever point the user gave) from the centre
-    d = np.einsum("nij,nj->ni", Q, P - c) if len(U) else P - c
-    extent = float(max(np.abs(t).max(initial=0.0), np.abs(d).max(initial=0.0)))
-    reach = float(max(extent, np.abs(c).max(initial=0.0)))
-    if extent == 0:
-        extent = reach if reach > 0 else 1.0
-        reach = extent
-    return c, extent, reach
+    t = T[..., :3, 3] + np.einsum("snij,sj->sni", T[..., :3, :3], c) - c[:, None]
+    extent = np.maximum(np.abs(t).max((1, 2), initial=0.0), np.abs(d).max((1, 2), initial=0.0))
+    reach = np.maximum(extent, np.abs(c).max(1))
+    zero = extent == 0
+    extent = np.where(zero, np.where(reach > 0, reach, 1.0), extent)
+    return c, extent, np.where(zero, extent, reach)

@@ -79,6 +79,8 @@ FREE_PARAMETERS = {
 _PITCH_OF = {"R": 0.0, "C": np.nan, "P": np.inf}
 #: pitch column of a joint kind (H: the given pitch; C, S, U: NaN)
 PITCH_OF_KIND = {"R": 0.0, "P": np.inf}
+#: the azimuth grid (rad) of the sphere and Hooke families when the user gives none
+DEFAULT_AZIMUTHS = np.arange(4) * np.pi / 4
 
 
 def arrangements(family: str, n_positions: int | None = None) -> list[tuple]:

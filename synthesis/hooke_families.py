@@ -40,7 +40,7 @@ import itertools
 
 import numpy as np
 
-from .decompose import PITCH_OF_KIND, _grid_numbers, angle_grid, task_positions
+from .decompose import DEFAULT_AZIMUTHS, PITCH_OF_KIND, _grid_numbers, angle_grid, task_positions
 from .errors import SynthesisError
 from .screw import Line
 from .transition import Transitions, transition_joints
@@ -51,7 +51,6 @@ __all__ = ["hooke_arrangements", "hooke_family_dyads"]
 
 #: main link → positions it is synthesised through
 _MAIN = {"UR": 4, "UP": 3, "UH": 4, "UC": 4}
-DEFAULT_AZIMUTHS = np.arange(4) * np.pi / 4
 DEFAULT_AXIS_AZIMUTHS = np.array([np.pi / 6, 2 * np.pi / 3])
 #: default UC centres: the task's centre moved by half its reach along e1, e2, e3 of the
 #: task's reference frame (so the grid moves with the task)

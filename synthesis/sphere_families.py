@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .binary import _rot
-from .decompose import angle_grid, task_positions
+from .decompose import DEFAULT_AZIMUTHS, angle_grid, task_positions
 from .errors import SynthesisError
 from .screw import Line
 from .validate import number
@@ -43,7 +43,6 @@ SPHERE_MAIN_POSITIONS = {"RS": 4, "PS": 3, "HS": 4}
 _EZ = np.array([0, 0, 1.0])
 _TRANS = {"R": 2, "P": 1}
 #: default azimuth grid (rad)
-DEFAULT_AZIMUTHS = np.arange(4) * np.pi / 4
 #: family → (positions, free parameters, note for :func:`synthesis.families`)
 _H_NOTE = ("implemented with the pitch given (the choice pitch): main HS link ({arr}) through 4 "
            "positions (azimuth free) + {x} transition (joint {j}) through {k}: N = {n}; the "
@@ -127,13 +126,8 @@ def sphere_family_dyads(family: str, screws, *, azimuth=None, pitch=None) -> dic
     SynthesisError
         Bad input, naming the argument (``screws``, ``azimuth``, ``pitch``).
     """
-    from .spherical import task_frame
-    T, N, arr, reach = task_positions(family, screws, sphere_arrangements)
-    ph = _helical_pitch(family, pitch)
-    psis = angle_grid(azimuth, "azimuth", DEFAULT_AZIMUTHS)
-    frame = task_frame(screws)
-    axes = np.array([s.axis for s in screws], float)
-    points = np.array([s.point for s in screws], float)
+    task = sphere_task(family, screws, azimuth, pitch, sphere_arrangements)
+    T, N, arr, reach, ph, psis, frame, axes, points = task
     mains = {}
     parts = []
     for name, main, x, n_b, k in arr:
@@ -145,6 +139,19 @@ def sphere_family_dyads(family: str, screws, *, azimuth=None, pitch=None) -> dic
     cols = _columns(family, T, reach, ph, parts)
     cols["variant"] = np.arange(1, len(cols["family"]) + 1)
     return cols
+
+
+def sphere_task(family, screws, azimuth, pitch, arrangements):
+    """The checked task of a sphere family (end or middle sphere): positions ``T (N, 4,
+    4)``, N, the family's ``arrangements(family, N)``, the reach, the helical pitch, the
+    azimuth grid, the task's frame and the screws' ``axes, points (N − 1, 3)``."""
+    from .spherical import task_frame
+    T, N, arr, reach = task_positions(family, screws, arrangements)
+    ph = _helical_pitch(family, pitch)
+    psis = angle_grid(azimuth, "azimuth", DEFAULT_AZIMUTHS)
+    axes = np.array([s.axis for s in screws], float)
+    points = np.array([s.point for s in screws], float)
+    return T, N, arr, reach, ph, psis, task_frame(screws), axes, points
 
 
 @dataclass

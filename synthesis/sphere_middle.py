@@ -33,7 +33,6 @@ import numpy as np
 
 from closure import open_chain_poses
 
-from .decompose import angle_grid, task_positions
 from .errors import SynthesisError
 from .screw import Line
 from .verify import _frames_of
@@ -41,7 +40,6 @@ from .verify import _frames_of
 __all__ = ["middle_arrangements", "sphere_middle_dyads", "verify_split"]
 
 _MAIN = {"SR": 4, "SP": 3, "SH": 4}
-DEFAULT_AZIMUTHS = np.arange(4) * np.pi / 4
 #: family → (positions, free parameters, note for :func:`synthesis.families`)
 FAMILIES = {"RSR": (5, ("azimuth",), ""), "SRR": (5, ("azimuth",), ""),
             "RSP": (4, ("azimuth",), ""), "SRP": (4, ("azimuth",), ""),
@@ -163,14 +161,9 @@ def sphere_middle_dyads(family: str, screws, *, azimuth=None, pitch=None) -> dic
     SynthesisError
         Bad input, naming the argument (``screws``, ``azimuth``, ``pitch``).
     """
-    from .sphere_families import _helical_pitch
-    from .spherical import task_frame
-    T, N, arr, reach = task_positions(family, screws, middle_arrangements)
-    ph = _helical_pitch(family, pitch)
-    psis = angle_grid(azimuth, "azimuth", DEFAULT_AZIMUTHS)
-    frame = task_frame(screws)
-    axes = np.array([s.axis for s in screws], float)
-    points = np.array([s.point for s in screws], float)
+    from .sphere_families import sphere_task
+    task = sphere_task(family, screws, azimuth, pitch, middle_arrangements)
+    T, N, arr, reach, ph, psis, frame, axes, points = task
     parts = []
     for name, main, x, n_b, k in arr:
         combos = np.array(list(itertools.combinations(range(1, N), n_b - 1)), int)

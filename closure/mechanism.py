@@ -6,12 +6,11 @@ given by its ground coordinates at that pose (seed 000's constant link
 matrices follow: A_ij = A_0i⁻¹ A_0j).  The links form a graph whose spanning
 tree from the ground fixes every link's pose from the joint coordinates; each
 joint outside the tree closes one independent loop (so the loops are found from
-the graph, any number, branching links included).
+the graph, any number, branching links included: :mod:`closure.topology`).  The
+mechanism compiles that structure and its evaluation plan (:mod:`closure.state`)
+lazily, at the first solve after a change.
 """
 from __future__ import annotations
-
-from collections import deque
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -20,32 +19,9 @@ from .errors import MechanismError
 from .frames import _inverse, as_array, check_transform, input_rates
 from .joints import JOINT_KINDS, Joint
 from .state import KinematicState, Plan
+from .topology import Topology, compile_tree
 
 __all__ = ["Mechanism"]
-
-
-@dataclass(frozen=True)
-class _Tree:
-    """Compiled structure (built lazily from the user's description)."""
-    links: tuple            # link names, ground first
-    parent_joint: tuple     # per link: index of the tree joint to its parent (-1 for ground)
-    forward: tuple          # per link: True if the parent is the joint's link_a
-    order: tuple            # links in BFS order (parents before children)
-    chords: tuple           # indices of the loop-closing joints
-    path_sign: np.ndarray   # (nlinks, nv): link twist = Σ sign · column · rate
-    loop_coef: np.ndarray   # (nloops, nv): loop velocity constraint coefficients
-    v_offset: tuple         # per joint: first velocity coordinate
-    q_offset: tuple         # per joint: first stored scalar coordinate
-    s_index: tuple          # per joint: index among spherical joints (-1 if not S)
-    nv: int
-    nq: int
-    ns: int
-    length_cols: np.ndarray  # velocity coordinates that are lengths (P, C slide)
-    scale: float            # characteristic length of the mechanism
-    centre: np.ndarray      # (3,) centroid of the joint origins at assembly (m)
-    link_index: dict          # link name -> index
-    joint_link_a: np.ndarray  # (njoints,) index of each joint's link a
-    frames_a: np.ndarray      # (njoints, 4, 4) the joints' frames on link a
 
 
 class Mechanism:
@@ -96,7 +72,7 @@ class Mechanism:
         self._input_set: set[tuple[int, int]] = set()
         self._q0: list[np.ndarray] = []
         self._rot0: list[np.ndarray | None] = []
-        self._tree: _Tree | None = None
+        self._tree: Topology | None = None
         self._plan: Plan | None = None
         self._mobility: int | None = None
         for i, name in enumerate(links):
@@ -225,83 +201,13 @@ class Mechanism:
 
     # ------------------------------------------------------------ compilation
     @property
-    def tree(self) -> _Tree:
+    def tree(self) -> Topology:
         """The compiled spanning tree and loops (rebuilt after any change)."""
         if self._tree is None:
-            self._tree = self._compile()
+            self._tree = compile_tree(self.joints, self.links, self.ground)
             self._plan = Plan(self, self._tree)
             self._check_mobility()
         return self._tree
-
-    def _compile(self) -> _Tree:
-        if not self.joints:
-            raise MechanismError("mechanism has no joints")
-        nl = len(self.links)
-        lidx = {n: i for i, n in enumerate(self.links)}
-        adj: list[list[int]] = [[] for _ in range(nl)]
-        for j in self.joints:
-            adj[lidx[j.link_a]].append(j.index)
-            adj[lidx[j.link_b]].append(j.index)
-        parent = [-1] * nl
-        forward = [True] * nl
-        seen = [False] * nl
-        seen[0] = True
-        order = [0]
-        tree_joints = set()
-        queue = deque([0])
-        while queue:
-            li = queue.popleft()
-            for ji in adj[li]:
-                j = self.joints[ji]
-                other = lidx[j.link_b] if lidx[j.link_a] == li else lidx[j.link_a]
-                if not seen[other]:
-                    seen[other] = True
-                    parent[other] = ji
-                    forward[other] = lidx[j.link_a] == li
-                    tree_joints.add(ji)
-                    order.append(other)
-                    queue.append(other)
-        lost = [self.links[i] for i in range(nl) if not seen[i]]
-        if lost:
-            raise MechanismError(f"links not connected to the ground {self.ground!r}: "
-                                 f"{', '.join(lost)}")
-        chords = tuple(j.index for j in self.joints if j.index not in tree_joints)
-        v_off, q_off, s_idx = [], [], []
-        nv = nq = ns = 0
-        length_cols = []
-        for j in self.joints:
-            v_off.append(nv)
-            q_off.append(nq)
-            s_idx.append(ns if j.kind == "S" else -1)
-            if j.kind == "P":
-                length_cols.append(nv)
-            if j.kind == "C":
-                length_cols.append(nv + 1)
-            nv += j.nv
-            nq += j.nq
-            ns += j.kind == "S"
-        sign = np.zeros((nl, nv))
-        for li in order[1:]:
-            ji = parent[li]
-            j = self.joints[ji]
-            p = lidx[j.link_a] if forward[li] else lidx[j.link_b]
-            sign[li] = sign[p]
-            sign[li, v_off[ji]:v_off[ji] + j.nv] = 1.0 if forward[li] else -1.0
-        loop = np.zeros((len(chords), nv))
-        for k, ci in enumerate(chords):
-            j = self.joints[ci]
-            loop[k] = sign[lidx[j.link_a]] - sign[lidx[j.link_b]]
-            loop[k, v_off[ci]:v_off[ci] + j.nv] += 1.0
-        pts = np.array([j.frame_a[:3, 3] for j in self.joints])
-        centre = pts.mean(0)
-        scale = float(np.max(np.linalg.norm(pts - centre, axis=1)))
-        if scale == 0.0:
-            scale = 1.0
-        return _Tree(tuple(self.links), tuple(parent), tuple(forward), tuple(order), chords,
-                     sign, loop, tuple(v_off), tuple(q_off), tuple(s_idx), nv, nq, ns,
-                     np.array(length_cols, dtype=int), scale, centre, lidx,
-                     np.array([lidx[j.link_a] for j in self.joints]),
-                     np.array([j.frame_a for j in self.joints]))
 
     def _loop_rank(self, state) -> np.ndarray:
         """Numerical rank of the dimensionless loop Jacobian at each state ``(B,)``."""

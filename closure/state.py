@@ -132,7 +132,7 @@ class Plan:
     Parameters
     ----------
     mech : Mechanism
-    tree : closure.mechanism._Tree
+    tree : closure.topology.Topology
         The compiled spanning tree and loops of ``mech``.
     """
 

@@ -40,22 +40,24 @@ def _per_rate(S, rates):
     return S.reshape(S.shape[:1] + (1,) * (rates.ndim - 2) + S.shape[1:])
 
 
-def _parts(ks):
-    """``(S, carrier, deps)`` of a :class:`~closure.state.KinematicState`, or of a mapping
-    with those keys (the former dict form, still accepted)."""
-    if isinstance(ks, KinematicState):
-        return ks.S, ks.carrier, ks.deps
-    return ks["S"], ks["carrier"], ks["deps"]
+def _twists(ks, what: str) -> np.ndarray:
+    """The column twists of a kinematic state with them (``what``: the caller, for the
+    error)."""
+    if not isinstance(ks, KinematicState) or ks.S is None:
+        raise MechanismError(f"{what}: ks: expected a KinematicState with twists (from "
+                             f"Pose.kinematics() or Mechanism.kinematic_state), got "
+                             f"{type(ks).__name__}")
+    return ks.S
 
 
-def link_twists(mech, ks, rates: np.ndarray) -> np.ndarray:
+def link_twists(mech, ks: KinematicState, rates: np.ndarray) -> np.ndarray:
     """World twists ``(B, ..., nlinks, 6)`` of every link for coordinate rates
     ``(B, ..., nv)`` (several rate vectors per pose allowed)."""
-    S = ks.S if isinstance(ks, KinematicState) else ks["S"]
+    S = _twists(ks, "link_twists")
     return np.einsum("lc,...cs->...ls", mech.tree.path_sign, _per_rate(S, rates) * rates[..., None])
 
 
-def carrier_twists(mech, ks, rates: np.ndarray) -> np.ndarray:
+def carrier_twists(mech, ks: KinematicState, rates: np.ndarray) -> np.ndarray:
     """World twists of the frames carrying the velocity coordinates' unit twists.
 
     Column c's unit twist ``S_c`` is constant in the frame of its joint on link *a*
@@ -68,8 +70,7 @@ def carrier_twists(mech, ks, rates: np.ndarray) -> np.ndarray:
     ----------
     mech : Mechanism
     ks : KinematicState
-        From :meth:`Mechanism.kinematic_state` or :meth:`Pose.kinematics` (a mapping
-        with keys ``"S"``, ``"carrier"`` and ``"deps"`` is also accepted).
+        From :meth:`Mechanism.kinematic_state` or :meth:`Pose.kinematics` (with twists).
     rates : numpy.ndarray, shape (B, ..., nv)
         Coordinate rates (rad/s or length/s; S joints: angular velocity in the *a* frame),
         several rate vectors per pose allowed.
@@ -80,7 +81,7 @@ def carrier_twists(mech, ks, rates: np.ndarray) -> np.ndarray:
         World twists ``(v, ω)`` (length/s, rad/s), ``v`` the velocity of the body point
         at the world origin.
     """
-    S, carrier, deps = _parts(ks)
+    S, carrier, deps = _twists(ks, "carrier_twists"), ks.carrier, ks.deps
     Sr = _per_rate(S, rates)
     V = np.einsum("lc,...cs->...ls", mech.tree.path_sign, Sr * rates[..., None])[..., carrier, :]
     for c, dep in enumerate(deps):
@@ -95,7 +96,7 @@ _carrier_twists = carrier_twists
 
 def _bias(mech, ks, a, b):
     """Column twist rates ``(B, nv, 6)``: ``[V_c(a), S_c] b_c``, symmetrised in (a, b)."""
-    S = _parts(ks)[0]
+    S = ks.S
     Sa = bracket(carrier_twists(mech, ks, a), S) * b[..., None]
     Sb = bracket(carrier_twists(mech, ks, b), S) * a[..., None]
     return 0.5 * (Sa + Sb)
@@ -123,7 +124,7 @@ def analogs(mech, pose, second: bool = True, ks=None):
         raise MechanismError(f"analogs: second: expected True or False, got {shown(second)}")
     t = mech.tree
     ks = pose.kinematics() if ks is None else ks
-    if not second and isinstance(ks, KinematicState) and ks.first is not None \
+    if not second and ks.first is not None \
             and not np.isnan(ks.first).any():
         return ks.first.copy(), None         # computed by the solver with its last step
     J = mech.jacobian(ks)

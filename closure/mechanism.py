@@ -348,7 +348,7 @@ class Mechanism:
     def jacobian(self, ks) -> np.ndarray:
         """Loop-closure Jacobian ``(B, 6·nloops, nv)`` in world twists ``(v, ω)``."""
         t = self.tree
-        J = np.einsum("lc,bcs->blsc", t.loop_coef, _twists_of(ks))
+        J = np.einsum("lc,bcs->blsc", t.loop_coef, ks.S)
         return J.reshape(J.shape[0], -1, t.nv)
 
     def _scaled_rows(self, X) -> np.ndarray:
@@ -372,10 +372,10 @@ class Mechanism:
         """Dimensionless Jacobian: twists about the centre, translation rows and length
         columns divided / multiplied by the scale."""
         plan = self.plan
-        return plan.scaled_jacobian(_twists_of(ks), plan.all_cols)
+        return plan.scaled_jacobian(ks.S, plan.all_cols)
 
     def _scaled_residual(self, ks) -> np.ndarray:
-        return self.plan.scaled_residual(ks.r if isinstance(ks, KinematicState) else ks["r"])
+        return self.plan.scaled_residual(ks.r)
 
     # ------------------------------------------------------------ solving
     def solve(self, inputs, guess=None, *, options=None, raise_on_failure: bool = True,
@@ -420,9 +420,3 @@ class Mechanism:
         kinds = "".join(j.kind for j in self.joints)
         return (f"Mechanism({len(self.links)} links, joints {kinds}, "
                 f"{len(self.inputs)} inputs)")
-
-
-def _twists_of(ks) -> np.ndarray:
-    """The column twists ``S`` of a :class:`KinematicState` (or of a mapping with key
-    ``"S"``, the former form)."""
-    return ks.S if isinstance(ks, KinematicState) else ks["S"]

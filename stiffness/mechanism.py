@@ -590,9 +590,9 @@ def _loaded(mechanism, ks, idx, free, Zr, lam, A0, colf, loop, along, Kq_s, svd,
     # rates of every coordinate along each mode (true units)
     rates = np.zeros((b, r, t.nv))
     rates[:, :, free] = np.swapaxes(Zr * colf[:, None], 1, 2)
-    S = ks.S[idx]                                          # (b, nv, 6)
-    Vc = carrier_twists(mechanism, {"S": S, "carrier": ks.carrier, "deps": ks.deps},
-                        rates)                             # (b, r, nv, 6)
+    sub = ks.take(idx)
+    S = sub.S                                              # (b, nv, 6)
+    Vc = carrier_twists(mechanism, sub, rates)             # (b, r, nv, 6)
     Wdot = bracket(Vc, S[:, None])[:, :, free]             # (b, r, n, 6)
     Hl = -np.einsum("bci,bcs,bjcs->bij", Zr * colf[:, None], Lam, Wdot)
     Hl += lam[:, :, None] * np.eye(r)

@@ -252,7 +252,7 @@ def assemble(links, screws, *, drive: str | None = None, steps: int = 180,
         df, poses = m.sweep(dvals[0] + sense * side * path, return_pose=True)
         ok = df["status"].isin(["ok", "near-singular"]).to_numpy()
         n_ok = len(ok) if ok.all() else int(np.argmin(ok))
-        body = poses.kinematics(twists=False)["link"][:, m.links.index("body")]
+        body = poses.kinematics(twists=False).link[:, m.links.index("body")]
         for p in np.flatnonzero(mine):
             row = int(np.searchsorted(path, side * travel[p]))
             if row < n_ok:

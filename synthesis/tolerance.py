@@ -143,7 +143,7 @@ def _bodies(chains, kinds, pitches, x):
                 if t == "C":
                     m.add_input(jn, 1)
         pose = m.solve(np.tile(x, (1, len(block))), continuation=False)
-        link = pose.kinematics(twists=False)["link"]
+        link = pose.kinematics(twists=False).link
         out.append(link[:, [m.links.index(f"L{v}_{len(kinds) - 1}") for v in range(len(block))]])
     return np.concatenate(out, 1)
 

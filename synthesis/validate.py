@@ -192,8 +192,9 @@ def task_scales(transforms, axes, points) -> tuple[np.ndarray, np.ndarray, np.nd
         d = P - c[:, None]
     # translations of C T C⁻¹ with C the shift by −c: t + R c − c
     t = T[..., :3, 3] + np.einsum("snij,sj->sni", T[..., :3, :3], c) - c[:, None]
-    extent = np.maximum(np.abs(t).max((1, 2), initial=0.0), np.abs(d).max((1, 2), initial=0.0))
-    reach = np.maximum(extent, np.abs(c).max(1))
+    extent = np.maximum(np.linalg.norm(t, axis=2).max(1, initial=0.0),
+                        np.linalg.norm(d, axis=2).max(1, initial=0.0))
+    reach = np.maximum(extent, np.linalg.norm(c, axis=1))
     zero = extent == 0
     extent = np.where(zero, np.where(reach > 0, reach, 1.0), extent)
     return c, extent, np.where(zero, extent, reach)

@@ -474,3 +474,37 @@ def test_scaled_sphere_dyads_keep_their_members():
         assert np.allclose(d1[ok][["j3_x", "j3_y", "j3_z"]].to_numpy(),
                            lam * d0[ok][["j3_x", "j3_y", "j3_z"]].to_numpy(), rtol=1e-6,
                            atol=1e-9 * lam)
+
+
+@settings(FAST, max_examples=25)
+@given(st.lists(st.tuples(unit_vectors, points, st.floats(0.05, 3.0), st.floats(-2, 2)),
+                min_size=2, max_size=2), rigid_motions(far=(-1.0, 6.0)), st.floats(-8, 8),
+       st.integers(1, 3))
+def test_task_scales_batch_motion_and_units(screws, G, log_lam, copies):
+    """task_scales of a batch equals task_scale of each task; the centre moves with a rigid
+    motion (also far from the origin) while the extent stays, and both scale with the
+    length unit.  (A task without any length, rotations about concurrent axes, takes its
+    reach as its size: excluded by a slide.)"""
+    from synthesis.validate import task_scale, task_scales
+    assume(max(abs(s[3]) for s in screws) > 1e-2)
+    scr = [Screw(u, p, a, s) for u, p, a, s in screws]
+
+    def parts(Gm, lam):
+        T = np.array([Gm @ sc.matrix() @ np.linalg.inv(Gm) for sc in scr])
+        T[:, :3, 3] *= lam
+        U = np.array([Gm[:3, :3] @ sc.axis for sc in scr])
+        P = lam * np.array([Gm[:3, :3] @ sc.point + Gm[:3, 3] for sc in scr])
+        return T, U, P
+    lam = 10.0 ** log_lam
+    tasks = [parts(np.eye(4), 1.0), parts(G, 1.0), parts(np.eye(4), lam)]
+    c, ext, reach = task_scales(*(np.stack([t[k] for t in tasks] * copies) for k in range(3)))
+    for i, t in enumerate(tasks * copies):
+        ci, ei, ri = task_scale(*t)
+        np.testing.assert_allclose(c[i], ci, rtol=0, atol=1e-12 * max(ri, 1e-300))
+        assert abs(ext[i] - ei) <= 1e-12 * ei and abs(reach[i] - ri) <= 1e-12 * ri
+    off = np.abs(G[:3, 3]).max() + 1.0
+    np.testing.assert_allclose(c[1], G[:3, :3] @ c[0] + G[:3, 3], rtol=0, atol=1e-12 * off)
+    assert abs(ext[1] - ext[0]) <= 1e-12 * off
+    np.testing.assert_allclose(c[2], lam * c[0], rtol=0,
+                               atol=1e-12 * lam * (1 + np.abs(c[0]).max()))
+    assert abs(ext[2] - lam * ext[0]) <= 1e-12 * lam * ext[0]

@@ -28,13 +28,26 @@ with it to rounding:
   (LAPACK's gesdd, as numpy) elsewhere (:class:`closure.lstsq._LstSq`): singular values
   are computed only for SVD poses (the exact condition numbers asked for later come from
   numpy's SVD without the vectors, :meth:`closure.state.Plan.condition`);
+* :func:`_pattern`, :func:`_sp_factor`, :func:`_sp_solve`, :func:`_sp_inv_smin` — the
+  same least squares for the solver, on the Jacobian's block structure: column c enters
+  loop l only where its loop coefficient is not zero, so a chain of loops that share few
+  joints has a block-banded Jacobian, and its Gram matrix is factored on its envelope
+  (Cholesky, tr G⁻¹ by the selected inverse, triangular solves): the cost of a step is
+  linear in the number of loops.  The same sums as the dense kernels less their zero
+  terms (steps equal to rounding); a full envelope (one loop) uses the dense kernels,
+  whose values it then has bit for bit;
 * :func:`drive` — damped Gauss–Newton with backtracking and the fused first analogs
   (:func:`closure.solver.newton`), and the continuation around it: predictor along the
   analogs, corrector, acceptance and step halving (:func:`closure.solver._continue`), for
-  a batch of targets or a sweep's rows, each member on its own.
+  a batch of targets or a sweep's rows, or the whole batch solve from guesses
+  (``SOLVE``: each guess corrected, then continued, its state in the kernel's scratch),
+  each member on its own.
 
-Inside a member the helpers take whole arrays and indices rather than views (a view costs
-two atomic reference-count updates, more than a 4x4 product's arithmetic).
+Inside a member the helpers take whole arrays and indices rather than views, and
+:func:`drive` works on borrowed arrays (:func:`_borrowed`: no reference count), so the
+views, tuples and calls of the inner loop make no atomic reference-count updates (each
+costs more than a 4x4 product's arithmetic; together they were a third of the solver's
+time).
 
 numba compiles the kernels on the first solve (``cache=True``: once per installation,
 then loaded from the cache); :mod:`closure.state` imports this module when a mechanism is
@@ -49,9 +62,12 @@ import numpy as np
 
 from .lstsq import FAST_COND, SINGULAR_RTOL      # constants of the kernels once compiled
 
+from numba.core import cgutils                  # noqa: E402  (numba's own helpers)
+from numba.extending import intrinsic           # noqa: E402
+
 __all__ = ["pack", "KIND_CODE", "drive", "evaluate_batch", "twists_batch", "apply_batch",
            "distance_batch", "scaled_jacobian_batch", "lsq_batch", "NEWTON", "CONTINUE",
-           "SWEEP"]
+           "SWEEP", "SOLVE"]
 
 _JIT = dict(cache=True, nogil=True, error_model="numpy")
 
@@ -261,11 +277,59 @@ def _loop_log(G, ig, r, ir, w):
 
 
 # ---------------------------------------------------------------------- array helpers
+@intrinsic
+def _borrowed(typingctx, arr):
+    """``arr`` without its reference count: the same data, shape and strides, no meminfo
+    (numba then skips the atomic reference-count updates on every view, tuple and call
+    that carries it, which otherwise cost the solver about a third of its time).  Only for
+    arrays that outlive every use of the borrowed one: :func:`drive` borrows its arguments
+    and the scratch it allocated, which it keeps to its end (:func:`_keep_alive`)."""
+    def codegen(context, builder, sig, args):
+        src = context.make_array(sig.args[0])(context, builder, value=args[0])
+        out = context.make_array(sig.return_type)(context, builder, value=src._getvalue())
+        out.meminfo = cgutils.get_null_value(out.meminfo.type)
+        out.parent = cgutils.get_null_value(out.parent.type)
+        return out._getvalue()
+    return arr(arr), codegen
+
+
+@intrinsic
+def _flat(typingctx, arr):
+    """The C-contiguous ``arr`` as a flat, borrowed (:func:`_borrowed`) view: its data
+    with shape ``(arr.size,)``, made inline (``reshape`` calls numba's helper)."""
+    from numba.core import types
+    if not isinstance(arr, types.Array) or arr.layout != "C":
+        return None
+    flat = types.Array(arr.dtype, 1, "C")
+
+    def codegen(context, builder, sig, args):
+        src = context.make_array(sig.args[0])(context, builder, value=args[0])
+        out = context.make_array(flat)(context, builder)
+        context.populate_array(out, data=src.data, shape=[src.nitems],
+                               strides=[src.itemsize], itemsize=src.itemsize, meminfo=None)
+        return out._getvalue()
+    return flat(arr), codegen
+
+
+@numba.njit(inline="always", **_JIT)
+def _keep_alive(owners):
+    """Nothing: a use of ``owners`` that keeps them (and the arrays borrowed from them)
+    alive up to this call."""
+    return None
+
+
+@numba.njit(**_JIT)
+def _borrowed_state(st):
+    """:func:`_borrowed` of every array of a member's state tuple."""
+    return (_borrowed(st[0]), _borrowed(st[1]), _borrowed(st[2]), _borrowed(st[3]),
+            _borrowed(st[4]), _borrowed(st[5]), _borrowed(st[6]), _borrowed(st[7]))
+
+
 @numba.njit(**_JIT)
 def _copy(src, dst):
     """``dst[...] = src`` for C-contiguous arrays of one shape (a flat loop: numba's
     broadcasting assignment compiles to far more code)."""
-    s, d = src.reshape(src.size), dst.reshape(dst.size)
+    s, d = _flat(src), _flat(dst)
     for i in range(s.size):
         d[i] = s[i]
 
@@ -273,7 +337,7 @@ def _copy(src, dst):
 @numba.njit(**_JIT)
 def _fill(dst, v):
     """``dst[...] = v`` for a C-contiguous array."""
-    d = dst.reshape(dst.size)
+    d = _flat(dst)
     for i in range(d.size):
         d[i] = v
 
@@ -340,7 +404,14 @@ def _evaluate(PI, PF, PM, q, rot, A, link, fa, r, S, T, w3):
             _rigid_mul(link, pl, T, 1, link, li)
     o_jla, m_fa = PI[O_JLA], PI[M_FA]
     for j in range(nj):
-        _rigid_mul(link, PI[o_jla + j], PM, m_fa + j, fa, j)
+        la = PI[o_jla + j]
+        if la == 0:                                     # on the ground: I · F_a
+            for a in range(3):
+                for b in range(4):
+                    fa[j, a, b] = PM[m_fa + j, a, b]
+            fa[j, 3, 0], fa[j, 3, 1], fa[j, 3, 2], fa[j, 3, 3] = 0.0, 0.0, 0.0, 1.0
+        else:
+            _rigid_mul(link, la, PM, m_fa + j, fa, j)
     # loops: G = F_a A F_b⁻¹ T_b⁻¹ about the centre, and its log
     o_cj, o_clb, m_cf, o_c = PI[O_CJ], PI[O_CLB], PI[M_CFBI], PI[F_CENTRE]
     c0, c1, c2 = PF[o_c], PF[o_c + 1], PF[o_c + 2]
@@ -690,6 +761,505 @@ def _lsq_work(m, n, nr):
             np.zeros((k, nr)), np.zeros((m, nr)))
 
 
+# ---------------------------------------------------------------------- block-sparse least squares
+# The loop Jacobian of columns ``cols`` is block-sparse: column c has a 6-row block in loop
+# lp only where the loop coefficient of c in lp is not zero (a chain of loops that share
+# few joints: block-banded).  :func:`_pattern` lays out, once per kernel call, that
+# structure and the envelope (skyline) of the Gram matrix; the Jacobian is kept as its
+# nonzero blocks (``Jv``: 6 values per (column, loop) entry, columns in turn) and the Gram
+# matrix and its Cholesky factor as their envelope, row by row.  Every sum runs over the
+# same terms in the same order as the dense kernels above, less the terms that are exactly
+# zero, so G, its factor, the steps' products and the residual are the dense path's values;
+# tr G⁻¹ comes from the selected inverse on the envelope (Takahashi's equations) and the
+# solves from triangular solves on the envelope instead of the explicit G⁻¹ (the same to
+# rounding).  The cost of a factorisation is O(Σ envelope row²), linear in the number of
+# loops of a chain; poses that need the truncated SVD get the dense matrix.
+
+# the pattern's header: sizes, then the offsets of its tables
+(P_N, P_M, P_K, P_WIDE, P_NNZ, P_ENV, P_CPTR, P_CLP, P_RPTR, P_RCOL, P_RPOS, P_F, P_EPTR,
+ P_LAST, P_RM, P_DENSE, P_HEAD) = range(17)
+
+
+@numba.njit(**_JIT)
+def _pattern(PI, PF, cols):
+    """The block structure of the loop Jacobian of columns ``cols`` and the envelope of its
+    Gram matrix (``J Jᵀ`` over rows when wide, ``Jᵀ J`` over columns when tall), as one
+    int64 array: the header ``P_*``, then per column the loops it enters (``cptr``,
+    ``clp``; entry e of column k is ``Jv[6 e : 6 e + 6]``), per loop its columns in order
+    and their entries (``rptr``, ``rcol``, ``rpos``), per Gram row the first column of its
+    envelope ``f``, its offset ``eptr`` and per Gram column the last row whose envelope
+    reaches it ``last``, and the nonzero entries of the row map (per row: count, columns)."""
+    nc, nv, o_lp, o_rm = PI[H_NC], PI[H_NV], PI[F_LOOP], PI[F_ROWMAP]
+    n = cols.shape[0]
+    m = 6 * nc
+    nnz = 0
+    for k in range(n):
+        for lp in range(nc):
+            if PF[o_lp + nv * lp + cols[k]] != 0.0:
+                nnz += 1
+    wide = m < n
+    kk = min(m, n)
+    o_cptr = P_HEAD
+    o_clp = o_cptr + n + 1
+    o_rptr = o_clp + nnz
+    o_rcol = o_rptr + nc + 1
+    o_rpos = o_rcol + nnz
+    o_f = o_rpos + nnz
+    o_eptr = o_f + kk
+    o_last = o_eptr + kk + 1
+    o_rm_ = o_last + kk
+    P = np.zeros(o_rm_ + 42, dtype=np.int64)
+    P[P_N], P[P_M], P[P_K], P[P_WIDE], P[P_NNZ] = n, m, kk, 1 if wide else 0, nnz
+    P[P_CPTR], P[P_CLP], P[P_RPTR], P[P_RCOL], P[P_RPOS] = o_cptr, o_clp, o_rptr, o_rcol, o_rpos
+    P[P_F], P[P_EPTR], P[P_LAST], P[P_RM] = o_f, o_eptr, o_last, o_rm_
+    e = 0
+    for k in range(n):                              # columns: their loops
+        P[o_cptr + k] = e
+        for lp in range(nc):
+            if PF[o_lp + nv * lp + cols[k]] != 0.0:
+                P[o_clp + e] = lp
+                e += 1
+    P[o_cptr + n] = e
+    x = 0
+    for lp in range(nc):                            # loops: their columns, in order
+        P[o_rptr + lp] = x
+        for k in range(n):
+            for e in range(P[o_cptr + k], P[o_cptr + k + 1]):
+                if P[o_clp + e] == lp:
+                    P[o_rcol + x] = k
+                    P[o_rpos + x] = e
+                    x += 1
+    P[o_rptr + nc] = x
+    # the envelope: the first Gram column each row reaches
+    if wide:                                        # rows of loop lp: the first loop that
+        for lp in range(nc):                        # shares a column with it
+            fl = lp
+            for x in range(P[o_rptr + lp], P[o_rptr + lp + 1]):
+                k = P[o_rcol + x]
+                l0 = P[o_clp + P[o_cptr + k]]
+                if l0 < fl:
+                    fl = l0
+            for s in range(6):
+                P[o_f + 6 * lp + s] = 6 * fl
+    else:                                           # column k: the first column that
+        for k in range(kk):                         # shares a loop with it
+            fk = k
+            for e in range(P[o_cptr + k], P[o_cptr + k + 1]):
+                lp = P[o_clp + e]
+                if P[o_rptr + lp + 1] > P[o_rptr + lp]:
+                    k0 = P[o_rcol + P[o_rptr + lp]]
+                    if k0 < fk:
+                        fk = k0
+            P[o_f + k] = fk
+    env = 0
+    for i in range(kk):
+        P[o_eptr + i] = env
+        env += i - P[o_f + i] + 1
+        P[o_last + i] = i
+    P[o_eptr + kk] = env
+    P[P_ENV] = env
+    # a full envelope (one loop, or loops that all share columns): the dense kernels
+    P[P_DENSE] = 1 if 2 * env == kk * (kk + 1) else 0
+    for i in range(kk):
+        for j in range(P[o_f + i], i):
+            if P[o_last + j] < i:
+                P[o_last + j] = i
+    for s in range(6):                              # the row map's nonzero entries
+        c = 0
+        for t in range(6):
+            if PF[o_rm + 6 * s + t] != 0.0:
+                P[o_rm_ + 7 * s + 1 + c] = t
+                c += 1
+        P[o_rm_ + 7 * s] = c
+    return P
+
+
+@numba.njit(**_JIT)
+def _sp_work(P, nr):
+    """Scratch of the block-sparse least squares for pattern ``P`` and ``nr`` right-hand
+    sides: ``(Jv, L, Z, T1, T2, Jd, U, inv_s, Vt, Ginv, M1, M2)``: the Jacobian's blocks,
+    the envelope of the Cholesky factor and of G⁻¹, two vectors, and (not touched unless a
+    pose needs them: the truncated SVD, the trace estimate) the dense matrices."""
+    n, m, k = P[P_N], P[P_M], P[P_K]
+    return (np.zeros(6 * P[P_NNZ]), np.zeros(P[P_ENV]), np.zeros(P[P_ENV]),
+            np.zeros(max(m, n, 1)), np.zeros(max(m, 1)), np.empty((m, n)), np.empty((m, k)),
+            np.empty(k), np.empty((k, n)), np.empty((k, k)), np.empty((k, k)),
+            np.empty((k, k)))
+
+
+@numba.njit(**_JIT)
+def _sp_jacobian(PI, PF, S, cols, P, Jv):
+    """The nonzero blocks ``Jv`` of the dimensionless loop Jacobian of columns ``cols``
+    (:func:`_scaled_jacobian`'s values, the row map's zero entries skipped)."""
+    nv, o_rmf, o_lp = PI[H_NV], PI[F_ROWMAP], PI[F_LOOP]
+    o_cptr, o_clp, o_rm = P[P_CPTR], P[P_CLP], P[P_RM]
+    for k in range(P[P_N]):
+        e0, e1 = P[o_cptr + k], P[o_cptr + k + 1]
+        if e0 == e1:
+            continue
+        c = cols[k]
+        for s in range(6):
+            v = 0.0
+            for x in range(P[o_rm + 7 * s]):
+                t = P[o_rm + 7 * s + 1 + x]
+                v += S[c, t] * PF[o_rmf + 6 * s + t]
+            for e in range(e0, e1):
+                Jv[6 * e + s] = PF[o_lp + nv * P[o_clp + e] + c] * v
+
+
+@numba.njit(**_JIT)
+def _sp_dense(P, Jv, J):
+    """The dense ``J`` (m, n) of the blocks ``Jv``."""
+    m, n = P[P_M], P[P_N]
+    o_cptr, o_clp = P[P_CPTR], P[P_CLP]
+    for a in range(m):
+        for b in range(n):
+            J[a, b] = 0.0
+    for k in range(n):
+        for e in range(P[o_cptr + k], P[o_cptr + k + 1]):
+            lp = P[o_clp + e]
+            for s in range(6):
+                J[6 * lp + s, k] = Jv[6 * e + s]
+
+
+@numba.njit(**_JIT)
+def _sp_factor(P, Jv, L, Z):
+    """Cholesky path of :func:`_factor` on the envelope: the Gram matrix into ``L`` and
+    factored in place, G⁻¹ on the envelope into ``Z``.  Returns ``(fast, sqrt(tr G⁻¹))``
+    as :func:`_factor`."""
+    kk = P[P_K]
+    o_f, o_e, o_last = P[P_F], P[P_EPTR], P[P_LAST]
+    o_rptr, o_rcol, o_rpos = P[P_RPTR], P[P_RCOL], P[P_RPOS]
+    nc = P[P_M] // 6
+    for i in range(P[P_ENV]):
+        L[i] = 0.0
+    if P[P_WIDE]:                                   # G = J Jᵀ over rows: loop pairs
+        for li in range(nc):
+            a0, a1 = P[o_rptr + li], P[o_rptr + li + 1]
+            for lj in range(P[o_f + 6 * li] // 6, li + 1):
+                b0, b1 = P[o_rptr + lj], P[o_rptr + lj + 1]
+                x, y = a0, b0
+                while x < a1 and y < b1:            # the columns the two loops share
+                    kx, ky = P[o_rcol + x], P[o_rcol + y]
+                    if kx < ky:
+                        x += 1
+                    elif ky < kx:
+                        y += 1
+                    else:
+                        ex, ey = 6 * P[o_rpos + x], 6 * P[o_rpos + y]
+                        for si in range(6):
+                            i = 6 * li + si
+                            base = P[o_e + i] - P[o_f + i] + 6 * lj
+                            vi = Jv[ex + si]
+                            for sj in range(6 if lj < li else si + 1):
+                                L[base + sj] += vi * Jv[ey + sj]
+                        x += 1
+                        y += 1
+    else:                                           # G = Jᵀ J over columns: per loop
+        for lp in range(nc):
+            x0, x1 = P[o_rptr + lp], P[o_rptr + lp + 1]
+            for x in range(x0, x1):
+                a, ea = P[o_rcol + x], 6 * P[o_rpos + x]
+                base = P[o_e + a] - P[o_f + a]
+                for y in range(x0, x + 1):
+                    b, eb = P[o_rcol + y], 6 * P[o_rpos + y]
+                    s = L[base + b]
+                    for t in range(6):
+                        s += Jv[ea + t] * Jv[eb + t]
+                    L[base + b] = s
+    for j in range(kk):                             # G = L Lᵀ, column by column
+        fj = P[o_f + j]
+        dj = P[o_e + j] - fj
+        d = L[dj + j]
+        for t in range(fj, j):
+            d -= L[dj + t] * L[dj + t]
+        if not d > 0.0:
+            return False, 0.0
+        d = math.sqrt(d)
+        L[dj + j] = d
+        for i in range(j + 1, P[o_last + j] + 1):
+            fi = P[o_f + i]
+            if fi > j:
+                continue
+            di = P[o_e + i] - fi
+            s = L[di + j]
+            for t in range(max(fi, fj), j):
+                s -= L[di + t] * L[dj + t]
+            L[di + j] = s / d
+    # tr G⁻¹: G⁻¹ on the envelope, last row first:
+    # Z_ij = (δ_ij / L_ii − Σ_r L_ri Z_rj) / L_ii (Takahashi)
+    tr_inv = 0.0
+    for i in range(kk - 1, -1, -1):
+        fi = P[o_f + i]
+        lii = L[P[o_e + i] - fi + i]
+        last = P[o_last + i]
+        for j in range(i + 1, last + 1):
+            fj = P[o_f + j]
+            if fj > i:
+                continue
+            s = 0.0
+            for r_ in range(i + 1, last + 1):
+                fr = P[o_f + r_]
+                if fr > i:
+                    continue
+                if r_ >= j:
+                    z = Z[P[o_e + r_] - fr + j]
+                else:
+                    z = Z[P[o_e + j] - fj + r_]
+                s += L[P[o_e + r_] - fr + i] * z
+            Z[P[o_e + j] - fj + i] = -s / lii
+        s = 0.0
+        for r_ in range(i + 1, last + 1):
+            fr = P[o_f + r_]
+            if fr > i:
+                continue
+            s += L[P[o_e + r_] - fr + i] * Z[P[o_e + r_] - fr + i]
+        zii = (1.0 / lii - s) / lii
+        Z[P[o_e + i] - fi + i] = zii
+        tr_inv += zii
+    jj = 0.0                                        # ‖J‖²_F, rows in turn as the dense sum
+    for lp in range(nc):
+        for s_ in range(6):
+            for x in range(P[o_rptr + lp], P[o_rptr + lp + 1]):
+                v = Jv[6 * P[o_rpos + x] + s_]
+                jj += v * v
+    cest = math.sqrt(jj * tr_inv)
+    if not cest <= FAST_COND:
+        return False, 0.0
+    return True, math.sqrt(tr_inv)
+
+
+@numba.njit(**_JIT)
+def _env_solve(P, L, y):
+    """``y ← G⁻¹ y`` with the envelope Cholesky factor ``L`` of G."""
+    kk, o_f, o_e = P[P_K], P[P_F], P[P_EPTR]
+    for i in range(kk):                             # L z = y
+        fi = P[o_f + i]
+        di = P[o_e + i] - fi
+        s = y[i]
+        for t in range(fi, i):
+            s -= L[di + t] * y[t]
+        y[i] = s / L[di + i]
+    for i in range(kk - 1, -1, -1):                 # Lᵀ x = z
+        fi = P[o_f + i]
+        di = P[o_e + i] - fi
+        v = y[i] / L[di + i]
+        y[i] = v
+        for t in range(fi, i):
+            y[t] -= L[di + t] * v
+
+
+@numba.njit(**_JIT)
+def _sp_lsq(P, rank, W):
+    """Factor the Jacobian of blocks ``W[0]``: Cholesky on the envelope, or where that is
+    not taken (as :func:`_factor`) the truncated SVD of the dense matrix; returns
+    ``(fast, cond, inv0)`` as :func:`_lsq`."""
+    kk = P[P_K]
+    if kk > 0 and min(rank, kk) == kk:
+        fast, inv0 = _sp_factor(P, W[0], W[1], W[2])
+        if fast:
+            return True, np.nan, inv0
+    _sp_dense(P, W[0], W[5])
+    cond, inv0 = _svd_parts(W[5], rank, W[6], W[7], W[8])
+    return False, cond, inv0
+
+
+@numba.njit(**_JIT)
+def _sp_solve(P, fast, W, R, X, c):
+    """Column ``c`` of the minimum-norm ``X`` (n, ·) of ``J X = R`` (m, ·), as
+    :func:`_lsq_solve`: on the Cholesky path with one step of iterative refinement, by
+    the truncated SVD elsewhere."""
+    n, m, kk = P[P_N], P[P_M], P[P_K]
+    Jv, L, T1, T2 = W[0], W[1], W[3], W[4]
+    if not fast:                        # X = V diag(inv_s) Uᵀ R
+        U, inv_s, Vt = W[6], W[7], W[8]
+        for i in range(kk):
+            T1[i] = 0.0
+        for a in range(m):
+            r_ = R[a, c]
+            for i in range(kk):
+                T1[i] += U[a, i] * r_
+        for i in range(kk):
+            T1[i] *= inv_s[i]
+        for b in range(n):
+            X[b, c] = 0.0
+        for i in range(kk):
+            t1 = T1[i]
+            for b in range(n):
+                X[b, c] += Vt[i, b] * t1
+        return
+    o_cptr, o_clp, o_rptr, o_rcol, o_rpos = P[P_CPTR], P[P_CLP], P[P_RPTR], P[P_RCOL], \
+        P[P_RPOS]
+    nc = m // 6
+    wide = P[P_WIDE] == 1
+    for it in range(2):                 # X = J⁺ R, then X += J⁺ (R − J X)
+        if it == 0:
+            for a in range(m):
+                T2[a] = R[a, c]
+        else:                           # R − J X, rows in turn
+            for lp in range(nc):
+                x0, x1 = P[o_rptr + lp], P[o_rptr + lp + 1]
+                for s_ in range(6):
+                    s = 0.0
+                    for x in range(x0, x1):
+                        s += Jv[6 * P[o_rpos + x] + s_] * X[P[o_rcol + x], c]
+                    T2[6 * lp + s_] = R[6 * lp + s_, c] - s
+        if wide:                        # Jᵀ (G⁻¹ T2)
+            _env_solve(P, L, T2)
+            for b in range(n):
+                s = 0.0
+                for e in range(P[o_cptr + b], P[o_cptr + b + 1]):
+                    r0 = 6 * P[o_clp + e]
+                    for s_ in range(6):
+                        s += Jv[6 * e + s_] * T2[r0 + s_]
+                X[b, c] = s if it == 0 else X[b, c] + s
+        else:                           # G⁻¹ (Jᵀ T2)
+            for b in range(n):
+                s = 0.0
+                for e in range(P[o_cptr + b], P[o_cptr + b + 1]):
+                    r0 = 6 * P[o_clp + e]
+                    for s_ in range(6):
+                        s += Jv[6 * e + s_] * T2[r0 + s_]
+                T1[b] = s
+            _env_solve(P, L, T1)
+            for b in range(n):
+                X[b, c] = T1[b] if it == 0 else X[b, c] + T1[b]
+
+
+@numba.njit(**_JIT)
+def _sp_inv_smin(P, fast, inv0, above, W):
+    """:func:`_inv_smin` of a factorisation by :func:`_sp_lsq` (G⁻¹ made dense, from the
+    envelope factor, only where the trace estimate is needed)."""
+    if not fast or not inv0 > above:
+        return inv0
+    kk = P[P_K]
+    L, y, Ginv = W[1], W[3], W[9]
+    for j in range(kk):
+        for i in range(kk):
+            y[i] = 1.0 if i == j else 0.0
+        _env_solve(P, L, y)
+        for i in range(kk):
+            Ginv[i, j] = y[i]
+    for i in range(kk):                 # symmetric, as L⁻ᵀ L⁻¹
+        for j in range(i):
+            v = 0.5 * (Ginv[i, j] + Ginv[j, i])
+            Ginv[i, j] = v
+            Ginv[j, i] = v
+    return _inv_smin(fast, inv0, above, Ginv, W[10], W[11])
+
+
+# A full envelope (a mechanism of one loop) gains nothing from the block structure and
+# loses to its indirection: the dense kernels above then serve, on the dense Jacobian, with
+# the solves taken one right-hand side at a time (the same values as :func:`_lsq_solve`).
+@numba.njit(**_JIT)
+def _dn_jacobian(PI, PF, S, cols, P, J):
+    """The dense Jacobian ``J`` of :func:`_scaled_jacobian` (its values: the row map's
+    zero entries skipped, the loops' zero coefficients written as products)."""
+    nc, nv, o_rmf, o_lp, o_rm = PI[H_NC], PI[H_NV], PI[F_ROWMAP], PI[F_LOOP], P[P_RM]
+    for k in range(cols.shape[0]):
+        c = cols[k]
+        for s in range(6):
+            v = 0.0
+            for x in range(P[o_rm + 7 * s]):
+                t = P[o_rm + 7 * s + 1 + x]
+                v += S[c, t] * PF[o_rmf + 6 * s + t]
+            for lp in range(nc):
+                J[6 * lp + s, k] = PF[o_lp + nv * lp + c] * v
+
+
+@numba.njit(**_JIT)
+def _dn_solve(J, fast, Wd, R, X, c):
+    """Column ``c`` of :func:`_lsq_solve` with the factors ``Wd`` of :func:`_lsq`."""
+    m, n = J.shape
+    k = min(m, n)
+    Ginv, U, inv_s, Vt, T1, T2 = Wd[3], Wd[4], Wd[5], Wd[6], Wd[8], Wd[9]
+    if not fast:
+        for i in range(k):
+            T1[i, 0] = 0.0
+        for a in range(m):
+            r_ = R[a, c]
+            for i in range(k):
+                T1[i, 0] += U[a, i] * r_
+        for i in range(k):
+            T1[i, 0] *= inv_s[i]
+        for b in range(n):
+            X[b, c] = 0.0
+        for i in range(k):
+            t1 = T1[i, 0]
+            for b in range(n):
+                X[b, c] += Vt[i, b] * t1
+        return
+    wide = m < n
+    for it in range(2):
+        if it == 0:
+            for a in range(m):
+                T2[a, 0] = R[a, c]
+        else:
+            for a in range(m):
+                s = 0.0
+                for b in range(n):
+                    s += J[a, b] * X[b, c]
+                T2[a, 0] = R[a, c] - s
+        if wide:
+            for i in range(k):
+                s = 0.0
+                for a in range(k):
+                    s += Ginv[i, a] * T2[a, 0]
+                T1[i, 0] = s
+            for b in range(n):
+                s = 0.0
+                for a in range(m):
+                    s += J[a, b] * T1[a, 0]
+                X[b, c] = s if it == 0 else X[b, c] + s
+        else:
+            for i in range(k):
+                T1[i, 0] = 0.0
+            for a in range(m):
+                t2 = T2[a, 0]
+                for i in range(k):
+                    T1[i, 0] += J[a, i] * t2
+            for b in range(n):
+                s = 0.0
+                for a in range(k):
+                    s += Ginv[b, a] * T1[a, 0]
+                X[b, c] = s if it == 0 else X[b, c] + s
+
+
+@numba.njit(inline="always", **_JIT)
+def _ls_jacobian(PI, PF, S, cols, P, W):
+    """The Jacobian of columns ``cols`` at twists ``S`` into ``W``: dense or blocks."""
+    if P[P_DENSE]:
+        _dn_jacobian(PI, PF, S, cols, P, W[5])
+    else:
+        _sp_jacobian(PI, PF, S, cols, P, W[0])
+
+
+@numba.njit(inline="always", **_JIT)
+def _ls_factor(P, rank, W, Wd):
+    """:func:`_lsq` (dense) or :func:`_sp_lsq` (blocks) of the Jacobian in ``W``."""
+    if P[P_DENSE]:
+        return _lsq(W[5], rank, Wd)
+    return _sp_lsq(P, rank, W)
+
+
+@numba.njit(inline="always", **_JIT)
+def _ls_solve(P, fast, W, Wd, R, X, c):
+    """Column ``c`` of the minimum-norm solution with the factorisation of
+    :func:`_ls_factor`."""
+    if P[P_DENSE]:
+        _dn_solve(W[5], fast, Wd, R, X, c)
+    else:
+        _sp_solve(P, fast, W, R, X, c)
+
+
+@numba.njit(inline="always", **_JIT)
+def _ls_inv_smin(P, fast, inv0, above, W, Wd):
+    """:func:`_inv_smin` of the factorisation of :func:`_ls_factor`."""
+    if P[P_DENSE]:
+        return _inv_smin(fast, inv0, above, Wd[3], Wd[2], Wd[7])
+    return _sp_inv_smin(P, fast, inv0, above, W)
+
+
 # ---------------------------------------------------------------------- solver
 @numba.njit(**_JIT)
 def _lsq(J, rank, W):
@@ -717,7 +1287,66 @@ def _copy_state(a, b):
 
 
 #: tasks of :func:`drive`
-NEWTON, CONTINUE, SWEEP = 0, 1, 2
+NEWTON, CONTINUE, SWEEP, SOLVE = 0, 1, 2, 3
+
+
+@numba.njit(**_JIT)
+def _state_buffers(q, rot, A, link, r, S, first):
+    """A member's state ``(q, rot, A, link, frame_a, r, S, first)`` of the sizes of the
+    batch arrays given (zeros)."""
+    return (np.zeros(q.shape[1]), np.zeros((rot.shape[1], 3, 3)), np.zeros(A.shape[1:]),
+            np.zeros(link.shape[1:]), np.zeros(A.shape[1:]), np.zeros(r.shape[1:]),
+            np.zeros(S.shape[1:]), np.zeros(first.shape[1:]))
+
+
+@numba.njit(**_JIT)
+def _analog_rhs(PI, PF, S, icols, Pi, Jiv, R):
+    """Columns 1, 2 ... of ``R``: the input columns' Jacobian at twists ``S`` over the
+    inputs' column scales (the analogs' right-hand sides)."""
+    m = Pi[P_M]
+    o_incs = PI[F_INCS]
+    _sp_jacobian(PI, PF, S, icols, Pi, Jiv)
+    o_cptr, o_clp = Pi[P_CPTR], Pi[P_CLP]
+    for i in range(icols.shape[0]):
+        for a in range(m):
+            R[a, 1 + i] = 0.0
+        sc = PF[o_incs + i]
+        for e in range(Pi[o_cptr + i], Pi[o_cptr + i + 1]):
+            r0 = 6 * Pi[o_clp + e]
+            for s in range(6):
+                R[r0 + s, 1 + i] = Jiv[6 * e + s] / sc
+
+
+@numba.njit(**_JIT)
+def _same_guess(q, rot, x_from, a, b):
+    """Members ``a`` and ``b`` start from the same guess (bit for bit)."""
+    for i in range(q.shape[1]):
+        if q[a, i] != q[b, i]:
+            return False
+    for i in range(x_from.shape[1]):
+        if x_from[a, i] != x_from[b, i]:
+            return False
+    for s in range(rot.shape[1]):
+        for i in range(3):
+            for j in range(3):
+                if rot[a, s, i, j] != rot[b, s, i, j]:
+                    return False
+    return True
+
+
+@numba.njit(**_JIT)
+def _copy_out(st, b, q, rot, A, link, fa, r, S, first):
+    """A member's state ``st`` into row ``b`` of the batch arrays (the kinematic state only
+    where they have rows)."""
+    _copy(st[0], q[b])
+    _copy(st[1], rot[b])
+    if A.shape[0] > b:
+        _copy(st[2], A[b])
+        _copy(st[3], link[b])
+        _copy(st[4], fa[b])
+        _copy(st[5], r[b])
+        _copy(st[6], S[b])
+        _copy(st[7], first[b])
 
 
 @numba.njit(**_JIT)
@@ -727,8 +1356,10 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
     ``(B, ...)`` (``q``, ``rot``, ``A``, ``link``, ``fa``, ``r``, ``S``, ``first``) and
     the figures ``res``, ``cond``, ``last`` (the last Newton step), ``its``, ``flag`` are
     updated in place.  ``fopts`` = (xtol, rtol, max_step, path_step, min_step,
-    tangent_cond, unused, longest path); ``ucols`` the columns solved for,
-    ``icols`` the inputs' (their analogs go to ``first``).
+    tangent_cond, dense, longest path) (``dense`` not 0: the dense least-squares kernels
+    whatever the Jacobian's block structure, the reference of the block-sparse ones);
+    ``ucols`` the columns solved for, ``icols`` the inputs' (their analogs go to
+    ``first``).
 
     * ``NEWTON`` (:func:`closure.solver.newton`): damped Gauss–Newton on every member
       from its ``q``, ``rot``; ``flag`` converged (1) or not; the condition of the last
@@ -742,14 +1373,24 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
     * ``SWEEP`` (:func:`closure.solver.sweep`): rows 1, 2 ... from the solved row 0
       (element 0 of every array): row i by continuation from row i − 1 to ``x_to[i]``,
       each row's tangent (``tangent[0]``) handed to the next, until a row stops.
+    * ``SOLVE`` (:func:`closure.solver.solve` of a batch from guesses): ``NEWTON`` on
+      every member's guess ``q``, ``rot`` (inputs ``x_from``: at most ``maxiter``
+      iterations), then ``CONTINUE`` from there to ``x_to`` (corrector: at most
+      min(``maxiter``, 8)), with the member's state in scratch: ``q``, ``rot`` and the
+      figures are written, the kinematic state (``A`` ... ``first``, ``last``) only where
+      those arrays have B rows (else pass them with none; ``tangent`` likewise unused);
+      ``flag`` the start's status where it failed (2 not converged, 3 residual above
+      ``rtol`` · offset) else the stop code.  Members whose guess (``q``, ``rot``,
+      ``x_from``) equals the previous member's, bit for bit, share its correction.
 
     Newton (:func:`closure.solver.newton`): each iteration factors the dimensionless
-    Jacobian of ``ucols`` (:func:`_lsq`), takes the minimum-norm step and the analogs
-    (the input columns are extra right-hand sides) from it, stops when the step is below
-    ``xtol`` · offset (or below what rounding of the residual explains near a singular
-    configuration) and the residual is at rounding level or stopped falling, else caps
-    the step at ``max_step`` and backtracks (1, 1/2 ... 1/128) to the first trial that
-    does not raise the residual.  Continuation: the predictor's change of any coordinate
+    Jacobian of ``ucols`` (block-sparse: :func:`_sp_lsq`), takes the minimum-norm step
+    from it and, once converged, the analogs (the input columns are extra right-hand
+    sides of the same factorisation), stops when the step is below ``xtol`` · offset (or
+    below what rounding of the residual explains near a singular configuration) and the
+    residual is at rounding level or stopped falling, else caps the step at ``max_step``
+    and backtracks (1, 1/2 ... 1/128) to the first trial that does not raise the
+    residual.  Continuation: the predictor's change of any coordinate
     is capped at ``path_step``; a step is accepted when the corrector converges, the
     loops close (``rtol``) and the corrected pose lies within half the predicted step of
     the predictor, else halved down to ``min_step`` (then stop); at a pose whose
@@ -757,67 +1398,129 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
 
     Returns the number of members (rows) filled, or −(b + 1) when member (row) b's path
     is longer than ``fopts[7]`` (then nothing is done for it)."""
-    xtol, rtol, max_step, path_step, min_step, tangent_cond = \
-        fopts[0], fopts[1], fopts[2], fopts[3], fopts[4], fopts[5]
-    scale, offset = PF[PI[F_SCALE]], PF[PI[F_OFFSET]]
-    o_inv, o_unk, o_incs, o_unkcs = PI[O_INV], PI[O_UNK], PI[F_INCS], PI[F_UNKCS]
-    o_cs, o_inq, o_insc = PI[F_COLSC], PI[O_INQ], PI[F_INSC]
-    floor, xtl, noise = 1e-14 * offset, xtol * offset, 1e-15 * offset
     B, nq = q.shape
     ns, nv, ni = rot.shape[1], first.shape[1], first.shape[2]
-    m = 6 * PI[H_NC]
     nu = ucols.shape[0]
-    nj, nl, nc = A.shape[1], link.shape[1], r.shape[1]
-    # scratch: the corrector's state, the line search's trial, the predicted state
-    co = (np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nj, 4, 4)), np.zeros((nl, 4, 4)),
-          np.zeros((nj, 4, 4)), np.zeros((nc, 6)), np.zeros((nv, 6)), np.zeros((nv, ni)))
-    tq, trot, tA, tlink = np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nj, 4, 4)), \
-        np.zeros((nl, 4, 4))
-    tfa, tr, tS = np.zeros((nj, 4, 4)), np.zeros((nc, 6)), np.zeros((nv, 6))
-    pq, prot = np.zeros(nq), np.zeros((ns, 3, 3))
-    rs, Ju, Jin = np.zeros(m), np.zeros((m, nu)), np.zeros((m, ni))
-    R, X, step = np.zeros((m, 1 + ni)), np.zeros((nu, 1 + ni)), np.zeros(nv)
-    T, R3, w3 = np.zeros((3, 4, 4)), np.zeros((1, 3, 3)), np.zeros(3)
-    W = _lsq_work(m, nu, 1 + ni)
-    newf, dx, xt, dv = np.zeros((nv, ni)), np.zeros(ni), np.zeros(ni), np.zeros(nv)
-    cq, crot, cA, clink, cfa, cr, cS, cfirst = co
+    P = _pattern(PI, PF, ucols)
+    Pi = _pattern(PI, PF, icols)
+    m = P[P_M]
+    if fopts[6] != 0.0:                 # the dense kernels asked for (a reference)
+        P[P_DENSE] = 1
+    W = _sp_work(P, 1 + ni)
+    dn = P[P_DENSE] == 1                # the dense kernels' scratch only where they serve
+    Wd = _lsq_work(m if dn else 0, nu if dn else 0, ni)
+    Jiv = np.zeros(6 * Pi[P_NNZ])
+    # scratch: the corrector's state, the line search's trial, the member's state
+    # (SOLVE), the shared start (SOLVE); the predicted state, the Newton step's arrays
+    sts = (_state_buffers(q, rot, A, link, r, S, first),
+           _state_buffers(q, rot, A, link, r, S, first),
+           _state_buffers(q, rot, A, link, r, S, first),
+           _state_buffers(q, rot, A, link, r, S, first))
+    vec = (np.zeros(nq), np.zeros(m), np.zeros(nv), np.zeros(3), np.zeros(ni), np.zeros(ni),
+           np.zeros(nv))
+    mat = (np.zeros((m, 1 + ni)), np.zeros((nu, 1 + ni)), np.zeros((nv, ni)),
+           np.zeros((nv, ni)))
+    m3 = (np.zeros((ns, 3, 3)), np.zeros((3, 4, 4)), np.zeros((1, 3, 3)))
+    owners = (P, Pi, Jiv, W, Wd, sts, vec, mat, m3)
+    # every array below is borrowed (:func:`_borrowed`): the owners above and the
+    # arguments stay alive to the end (:func:`_keep_alive` at every return)
+    PI, PF, PM, x_from, x_to = _borrowed(PI), _borrowed(PF), _borrowed(PM), \
+        _borrowed(x_from), _borrowed(x_to)
+    q, rot, A, link, fa, r, S, first = _borrowed_state((q, rot, A, link, fa, r, S, first))
+    res, cond, last, its, flag = _borrowed(res), _borrowed(cond), _borrowed(last), \
+        _borrowed(its), _borrowed(flag)
+    tangent, fopts, ucols, icols, x_cur = _borrowed(tangent), _borrowed(fopts), \
+        _borrowed(ucols), _borrowed(icols), _borrowed(x_cur)
+    P, Pi, Wi = _borrowed(P), _borrowed(Pi), (_borrowed(Jiv),)
+    W = (_borrowed(W[0]), _borrowed(W[1]), _borrowed(W[2]), _borrowed(W[3]), _borrowed(W[4]),
+         _borrowed(W[5]), _borrowed(W[6]), _borrowed(W[7]), _borrowed(W[8]), _borrowed(W[9]),
+         _borrowed(W[10]), _borrowed(W[11]))
+    Wd = (_borrowed(Wd[0]), _borrowed(Wd[1]), _borrowed(Wd[2]), _borrowed(Wd[3]),
+          _borrowed(Wd[4]), _borrowed(Wd[5]), _borrowed(Wd[6]), _borrowed(Wd[7]),
+          _borrowed(Wd[8]), _borrowed(Wd[9]))
+    co, trial, own, kept = _borrowed_state(sts[0]), _borrowed_state(sts[1]), \
+        _borrowed_state(sts[2]), _borrowed_state(sts[3])
+    pq, rs, step, w3, dx, xt, dv = _borrowed(vec[0]), _borrowed(vec[1]), _borrowed(vec[2]), \
+        _borrowed(vec[3]), _borrowed(vec[4]), _borrowed(vec[5]), _borrowed(vec[6])
+    R, X, newf, own_tan = _borrowed(mat[0]), _borrowed(mat[1]), _borrowed(mat[2]), \
+        _borrowed(mat[3])
+    prot, T, R3 = _borrowed(m3[0]), _borrowed(m3[1]), _borrowed(m3[2])
+    xtol, rtol, max_step, path_step = fopts[0], fopts[1], fopts[2], fopts[3]
+    min_step, tangent_cond = fopts[4], fopts[5]
+    o_inv, o_unk, o_unkcs = PI[O_INV], PI[O_UNK], PI[F_UNKCS]
+    o_cs, o_inq, o_insc = PI[F_COLSC], PI[O_INQ], PI[F_INSC]
+    scale, offset = PF[PI[F_SCALE]], PF[PI[F_OFFSET]]
+    floor, xtl, noise = 1e-14 * offset, xtol * offset, 1e-15 * offset
+    rtol_off = rtol * offset
+    B = q.shape[0]
+    nv, ni = first.shape[1], first.shape[2]
+    nu = ucols.shape[0]
     sweep = task == SWEEP
     newton_only = task == NEWTON
+    solve_t = task == SOLVE
+    corr_its = min(maxiter, 8)
+    c0 = np.int64(0)                    # the step's column (not a literal: one compile)
     if sweep:
         _fill(tangent, 0.0)
     n = x_to.shape[0] if sweep else B
+    shared = False
+    k_done, k_res, k_cond, k_last = False, 0.0, 0.0, 0.0
     for b in range(1 if sweep else 0, n):
-        cur = (q[b], rot[b], A[b], link[b], fa[b], r[b], S[b], first[b])
-        if sweep:                       # row b continues from row b − 1
+        start_code = 0
+        # phase 0: Newton from the member's own q, rot (NEWTON; SOLVE's start); 1: the path
+        phase = 1
+        if solve_t:
+            cur = own
+            if shared:                  # the previous member's start, shared
+                _copy_state(kept, own)
+                res[b], cond[b], last[b] = k_res, k_cond, k_last
+                start_code = 0 if k_done else 2
+                if k_done and k_res > rtol_off:
+                    start_code = 3
+                shared = b + 1 < n and _same_guess(q, rot, x_from, b, b + 1)
+            else:
+                phase = 0
+            x0, tb, have_b = x_from[b], own_tan, False
+        elif sweep:                     # row b continues from row b − 1
+            cur = (q[b], rot[b], A[b], link[b], fa[b], r[b], S[b], first[b])
             a = b - 1
             _copy_state((q[a], rot[a], A[a], link[a], fa[a], r[a], S[a], first[a]), cur)
             res[b], cond[b], last[b] = res[a], cond[a], last[a]
             x0, tb, have_b = x_cur[a], tangent[0], b >= 2
         else:
+            cur = (q[b], rot[b], A[b], link[b], fa[b], r[b], S[b], first[b])
             x0, tb, have_b = x_from[b], tangent[b], have
+            if newton_only:
+                phase = 0
         x1, xc = x_to[b], x_cur[b]
-        # ------------------------------------------------ the path (one pass for NEWTON)
-        span_s = 0.0
-        for i in range(ni):
-            xc[i] = x0[i]
-            v = abs((x1[i] - x0[i]) / PF[o_insc + i])
-            if v > span_s or v != v:
-                span_s = v
-        if not newton_only and span_s > fopts[7]:
-            return -(b + 1)                     # a path longer than MAX_PATH: refused
         lam, h = 0.0, 1.0
         stop = 0
         path_its = 0
-        active = newton_only or span_s > 0
         need = True
-        while active:
-            big_pred = 0.0
-            final = True
-            hh = 0.0
-            if newton_only:
-                _copy(q[b], cq)
-                _copy(rot[b], crot)
+        started = False
+        span_s = 0.0
+        big_pred, hh, final = 0.0, 0.0, True
+        while True:
+            if phase == 1 and not started:  # ------------------- the path: its length
+                started = True
+                span_s = 0.0
+                for i in range(ni):
+                    xc[i] = x0[i]
+                    v = abs((x1[i] - x0[i]) / PF[o_insc + i])
+                    if v > span_s or v != v:
+                        span_s = v
+                if span_s > fopts[7]:
+                    _keep_alive(owners)
+                    return -(b + 1)             # a path longer than MAX_PATH: refused
+                if not span_s > 0:
+                    break
+            n_iter = maxiter
+            if phase == 0:
+                _copy(q[b], co[0])
+                _copy(rot[b], co[1])
             else:
+                n_iter = corr_its
+                big_pred = 0.0
                 if need:                # the tangent: the analogs at the current pose
                     f = cur[7]
                     miss = False
@@ -832,14 +1535,11 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
                         for i in range(ni):
                             newf[PI[o_inv + i], i] = 1.0
                         if nu > 0:
-                            _scaled_jacobian(PI, PF, cur[6], ucols, Ju)
-                            _scaled_jacobian(PI, PF, cur[6], icols, Jin)
-                            fast, c_, inv0 = _lsq(Ju, rank, W)
-                            for a in range(m):
-                                R[a, 0] = 0.0
-                                for i in range(ni):
-                                    R[a, 1 + i] = Jin[a, i] / PF[o_incs + i]
-                            _lsq_solve(Ju, fast, W[3], W[4], W[5], W[6], R, X, W[8], W[9])
+                            _ls_jacobian(PI, PF, cur[6], ucols, P, W)
+                            fast, c_, inv0 = _ls_factor(P, rank, W, Wd)
+                            _analog_rhs(PI, PF, cur[6], icols, Pi, Wi[0], R)
+                            for i in range(ni):
+                                _ls_solve(P, fast, W, Wd, R, X, 1 + i)
                             for k in range(nu):
                                 for i in range(ni):
                                     newf[PI[o_unk + k], i] = -X[k, 1 + i] * PF[o_unkcs + k]
@@ -875,9 +1575,11 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
                 _apply(PI, PF, cur[0], cur[1], dv, pq, prot, R3)
                 for i in range(ni):
                     pq[PI[o_inq + i]] = xt[i]
-                _copy(pq, cq)
-                _copy(prot, crot)
+                _copy(pq, co[0])
+                _copy(prot, co[1])
             # ------------------------------------------------ Newton on the state co
+            cq, crot, cA, clink, cfa, cr, cS, cfirst = co
+            tq, trot, tA, tlink, tfa, tr_, tS, tfirst = trial
             _evaluate(PI, PF, PM, cq, crot, cA, clink, cfa, cr, cS, T, w3)
             n_res = _scaled_residual(cr, scale, rs)
             prev = np.inf
@@ -889,18 +1591,15 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
             for i in range(ni):
                 for c in range(ni):
                     cfirst[PI[o_inv + i], c] = 1.0 if i == c else 0.0
-            for _ in range(maxiter if newton_only else min(maxiter, 8)):
+            for _ in range(n_iter):
                 if done:
                     break
-                _scaled_jacobian(PI, PF, cS, ucols, Ju)
-                _scaled_jacobian(PI, PF, cS, icols, Jin)
-                fast, n_cond, inv0 = _lsq(Ju, rank, W)
+                _ls_jacobian(PI, PF, cS, ucols, P, W)
+                fast, n_cond, inv0 = _ls_factor(P, rank, W, Wd)
                 n_its += 1
                 for a in range(m):
                     R[a, 0] = rs[a]
-                    for i in range(ni):
-                        R[a, 1 + i] = Jin[a, i] / PF[o_incs + i]
-                _lsq_solve(Ju, fast, W[3], W[4], W[5], W[6], R, X, W[8], W[9])
+                _ls_solve(P, fast, W, Wd, R, X, c0)
                 big = 0.0
                 for k in range(nu):
                     v = abs(X[k, 0])
@@ -910,16 +1609,19 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
                 # that no longer reduce it; near a singular configuration the step must
                 # also be what rounding in the residual explains (noise / σ_min)
                 stalled = n_its > 1 and n_res > 0.5 * prev
-                tol_step = max(xtl, noise * _inv_smin(fast, inv0, xtl / noise, W[3], W[2],
-                                                      W[7]))
+                tol_step = max(xtl, noise * _ls_inv_smin(P, fast, inv0, xtl / noise, W, Wd))
                 conv = big <= tol_step and (n_res <= floor or stalled)
                 prev = n_res
                 if conv:
                     done = True
                     n_last = big
-                    for k in range(nu):
+                    if ni:              # the analogs: the input columns as right-hand sides
+                        _analog_rhs(PI, PF, cS, icols, Pi, Wi[0], R)
                         for i in range(ni):
-                            cfirst[PI[o_unk + k], i] = -X[k, 1 + i] * PF[o_unkcs + k]
+                            _ls_solve(P, fast, W, Wd, R, X, 1 + i)
+                        for k in range(nu):
+                            for i in range(ni):
+                                cfirst[PI[o_unk + k], i] = -X[k, 1 + i] * PF[o_unkcs + k]
                     break
                 fac = min(1.0, max_step / max(big, 1e-300))
                 _fill(step, 0.0)
@@ -931,27 +1633,45 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
                         for c in range(nv):
                             step[c] *= 0.5
                     _apply(PI, PF, cq, crot, step, tq, trot, R3)
-                    _evaluate(PI, PF, PM, tq, trot, tA, tlink, tfa, tr, tS, T, w3)
-                    rn = _scaled_residual(tr, scale, rs)
+                    _evaluate(PI, PF, PM, tq, trot, tA, tlink, tfa, tr_, tS, T, w3)
+                    rn = _scaled_residual(tr_, scale, rs)
                     if rn <= n_res * (1 + 1e-9) or rn < floor or hs == 7:
                         # the trial becomes the current state: swap the buffers
                         cq, tq, crot, trot, cA, tA = tq, cq, trot, crot, tA, cA
-                        clink, tlink, cfa, tfa, cr, tr, cS, tS = tlink, clink, tfa, cfa, tr, \
-                            cr, tS, cS
+                        clink, tlink, cfa, tfa, cr, tr_, cS, tS = tlink, clink, tfa, cfa, \
+                            tr_, cr, tS, cS
                         n_res = rn
                         break
-            # ------------------------------------------------ accept or halve
             co = (cq, crot, cA, clink, cfa, cr, cS, cfirst)
-            if newton_only:
-                _copy_state(co, cur)
+            trial = (tq, trot, tA, tlink, tfa, tr_, tS, tfirst)
+            if phase == 0:              # ------------------------ Newton's pose: its figures
                 if not done:            # the condition at the state returned
-                    _scaled_jacobian(PI, PF, cS, ucols, Ju)
-                    n_cond = _lsq(Ju, rank, W)[1]
-                res[b], its[b], cond[b], flag[b], last[b] = n_res, n_its, n_cond, done, n_last
-                break
-            jump = _distance(PI, PF, cq, crot, pq, prot, dv, R3, w3)
+                    _ls_jacobian(PI, PF, cS, ucols, P, W)
+                    n_cond = _ls_factor(P, rank, W, Wd)[1]
+                if newton_only:
+                    _copy_state(co, cur)
+                    res[b], its[b], cond[b], flag[b], last[b] = n_res, n_its, n_cond, done, \
+                        n_last
+                    break
+                co, own = own, co       # SOLVE: the start, then the path from it
+                cur = own
+                res[b], cond[b], last[b] = n_res, n_cond, n_last
+                start_code = 0 if done else 2
+                if done and n_res > rtol_off:
+                    start_code = 3
+                shared = b + 1 < n and _same_guess(q, rot, x_from, b, b + 1)
+                if shared:
+                    _copy_state(own, kept)
+                    k_done, k_res, k_cond, k_last = done, n_res, n_cond, n_last
+                phase = 1
+                continue
+            # ------------------------------------------------ accept or halve
+            jump = _distance(PI, PF, co[0], co[1], pq, prot, dv, R3, w3)
             if done and n_res <= rtol and jump <= 0.5 * big_pred:
-                _copy_state(co, cur)
+                if solve_t:             # the corrected state becomes the member's
+                    cur, co = co, cur
+                else:
+                    _copy_state(co, cur)
                 for i in range(ni):
                     xc[i] = xt[i]
                 res[b], cond[b], last[b] = n_res, n_cond, n_last
@@ -960,16 +1680,25 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
                 h = 2.0 * hh
                 need = True
                 if final:
-                    active = False
+                    break
             else:
                 h = 0.5 * hh
                 if h * span_s < min_step:
                     stop = 3 if (done and n_res > rtol) else 4
-                    active = False
-        if not newton_only:
-            its[b], flag[b] = path_its, stop
+                    break
+        if newton_only:
+            continue
+        its[b] = path_its
+        if solve_t:
+            own = cur
+            _copy_out(own, b, q, rot, A, link, fa, r, S, first)
+            flag[b] = start_code if start_code else stop
+        else:
+            flag[b] = stop
             if sweep and stop:
+                _keep_alive(owners)
                 return b + 1
+    _keep_alive(owners)
     return n
 
 

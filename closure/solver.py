@@ -16,7 +16,11 @@ returned (for well-conditioned poses when it is first read).
 Each iteration evaluates the kinematic state once per line-search trial and makes one
 factorisation, which serves the Newton step and the first-order analogs at once (the
 Jacobian's input columns are extra right-hand sides): the continuation's predictor takes
-its tangent from the corrector's last iteration.
+its tangent from the corrector's last iteration.  The factorisation follows the
+Jacobian's block structure (loops that share few joints: linear in the number of loops).
+A batch solved by continuation from its guesses is one kernel call (each guess corrected,
+then continued, members with the same guess sharing its correction), with no
+per-member kinematic state outside the kernel unless the poses keep it.
 """
 from __future__ import annotations
 
@@ -397,11 +401,17 @@ def _walk(mech, start: Pose, x_to, opts: SolverOptions, min_step: float = 1e-10,
     return x_cur, q, rot, res, its, cond, ks_out, stop, tan
 
 
+#: True: the solver kernel factors every Jacobian densely, whatever its block structure
+#: (the reference the block-sparse factorisation of loop chains is tested and timed
+#: against); never set by the engine itself
+DENSE_LSQ = False
+
+
 def _path_options(opts: SolverOptions, min_step: float) -> np.ndarray:
     """The solver kernel's tolerances: xtol, rtol, max_step, path_step, min_step,
-    TANGENT_COND, (unused), MAX_PATH."""
+    TANGENT_COND, dense (:data:`DENSE_LSQ`), MAX_PATH."""
     return np.array([opts.xtol, opts.rtol, opts.max_step, opts.path_step, min_step,
-                     TANGENT_COND, 0.0, MAX_PATH])
+                     TANGENT_COND, 1.0 if DENSE_LSQ else 0.0, MAX_PATH])
 
 
 def _check_path(x_from, x_to, xs) -> None:
@@ -437,10 +447,8 @@ def branch_tangent(mech, pose: Pose, direction, opts: SolverOptions | None = Non
     return analogs(mech, probe, second=False)[0][0]
 
 
-def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions):
-    """The poses continuation starts from: the guess (or the assembly) corrected at its
-    own inputs, broadcast to B members; and whether they are the caller's to change (not
-    the guess's own arrays)."""
+def _guess_arrays(mech, guess: Pose | None, B: int):
+    """``(q, rot, inputs)`` of the guess (or the assembly), checked: 1 or B poses."""
     if guess is None:
         q, rot = mech.assembly()
         x0 = q[:, mech.plan.input_q]
@@ -452,8 +460,18 @@ def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions):
         q, rot, x0 = guess.q, guess.rot, np.asarray(guess.inputs, float).reshape(len(guess), -1)
     if q.shape[0] not in (1, B):
         raise MechanismError(f"guess: has {q.shape[0]} poses, expected 1 or {B}")
+    return q, rot, x0
+
+
+def _start_pose(mech, guess: Pose | None, B: int, opts: SolverOptions, settled=None):
+    """The poses continuation starts from: the guess (or the assembly) corrected at its
+    own inputs, broadcast to B members; and whether they are the caller's to change (not
+    the guess's own arrays).  ``settled``: :func:`_settled` of the guess when known."""
+    q, rot, x0 = _guess_arrays(mech, guess, B)
     n = q.shape[0]
-    if guess is not None and _settled(mech, guess, opts):
+    if settled is None:
+        settled = guess is not None and _settled(mech, guess, opts)
+    if settled:
         # a pose the solver stopped at with its residual at rounding level and a step
         # below xtol: correcting it again would converge at once without moving it
         pose = Pose(mech, x0, guess.q, guess.rot, guess.residual, np.zeros(n, int),
@@ -527,7 +545,7 @@ def solve(mech, inputs, guess: Pose | None = None, *, options: SolverOptions | N
     continuation = _flag(continuation, "continuation")
     x, scalar = _inputs_array(mech, inputs)
     B = x.shape[0]
-    if B > CHUNK:
+    if B > CHUNK and not _fused(mech, guess, opts, continuation):
         pose = _solve_chunked(mech, x, guess, opts, continuation)
     else:
         pose = _solve_batch(mech, x, scalar, guess, opts, continuation)
@@ -572,10 +590,69 @@ def _solve_chunked(mech, x, guess, opts, continuation) -> Pose:
     return pose
 
 
+def _fused(mech, guess, opts: SolverOptions, continuation: bool) -> bool:
+    """True when :func:`solve` corrects the guesses and continues from them in one call of
+    the compiled kernel (:func:`_solve_fused`): continuation on a mechanism with loops from
+    a guess that is not already a settled pose (whose correction is skipped)."""
+    if not (continuation and mech.tree.chords):
+        return False
+    return not (isinstance(guess, Pose) and guess.mechanism is mech and
+                _settled(mech, guess, opts))
+
+
+def _solve_fused(mech, x, scalar, guess, opts: SolverOptions) -> Pose:
+    """The poses of :func:`solve` by continuation from the guesses (the assembly when
+    None), at inputs ``x`` (B, ni): every member's guess corrected (Newton) and continued
+    to its input in one call of :func:`closure.solve_kernels.drive` (task ``SOLVE``), the
+    member's kinematic state kept in the kernel's scratch (returned only for batches of
+    at most :data:`KEEP_STATE`): the poses of the two-step path (:func:`_start_pose`,
+    :func:`_walk`) without its per-member temporaries."""
+    plan = mech.plan
+    q0, rot0, x0 = _guess_arrays(mech, guess, x.shape[0])
+    B, ni = x.shape
+    q = np.empty((B, plan.nq))
+    q[:] = q0
+    q[:, plan.input_q] = x0
+    rot = np.empty((B, plan.ns, 3, 3))
+    rot[:] = rot0
+    x_from = np.empty((B, ni))
+    x_from[:] = x0
+    keep = B <= KEEP_STATE
+    nb, nv = (B if keep else 0), plan.nv
+    A, fa = np.empty((nb, plan.nj, 4, 4)), np.empty((nb, plan.nj, 4, 4))
+    link, r = np.empty((nb, plan.nl, 4, 4)), np.empty((nb, plan.chords.size, 6))
+    S, first = np.empty((nb, nv, 6)), np.empty((nb, nv, ni))
+    res, cond, last = np.empty(B), np.empty(B), np.empty(B)
+    its, flag = np.empty(B, dtype=np.int64), np.empty(B, dtype=np.int64)
+    x_cur = np.empty((B, ni))
+    k = plan._kernels
+    with _serial_blas_for(plan, plan._ucols.size):
+        n = k.drive(k.SOLVE, *plan.packed, x_from, _arr(x), q, rot, A, link, fa, r, S, first,
+                    res, cond, last, its, flag, _NO_T, False, _path_options(opts, 1e-10),
+                    opts.maxiter, _expected_rank(mech), plan._ucols, plan._icols, x_cur)
+    if n < 0:                                   # a path longer than MAX_PATH
+        _check_path(x_from, x, plan.input_scale)
+    ks = KinematicState(link, fa, A, r, S, plan.carrier, plan.deps, first, last) if keep \
+        else None
+    pose = Pose(mech, x, q, rot, res, its, cond, np.zeros(B, dtype=int), scalar, _ks=ks,
+                reached=x_cur, _cond_pending=True)
+    if opts.cond_limit < FAST_COND:              # the flags need the exact figures
+        pose._fill_condition()
+    status = _status(mech, res, pose._raw_condition, None, opts)
+    # the start's failure (2, 3), else where the path stopped (3, 4)
+    pose.status = np.where(flag > 0, flag, status) if B > 1 else \
+        np.array([flag[0] if flag[0] > 0 else status[0]])
+    return pose
+
+
 def _solve_batch(mech, x, scalar, guess, opts, continuation) -> Pose:
     """The poses of :func:`solve` at inputs ``x`` (B, ni), without raising."""
     B = x.shape[0]
-    start, owned = _start_pose(mech, guess, B, opts)
+    if _fused(mech, guess, opts, continuation):
+        return _solve_fused(mech, x, scalar, guess, opts)
+    # not fused: no loops, no continuation, or a settled guess (known when both hold)
+    settled = True if continuation and mech.tree.chords else None
+    start, owned = _start_pose(mech, guess, B, opts, settled)
     if continuation and mech.tree.chords:         # an open chain has no branch to follow
         reached, q, rot, res, its, cond, ks, stop, _ = _walk(mech, start, x, opts, owned=owned)
         if opts.cond_limit < FAST_COND:          # the flags need the exact figures

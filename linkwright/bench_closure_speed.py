@@ -81,7 +81,7 @@ def _rssr_guesses(m, x):
 
 def bench_closure_speed(quick: bool = False) -> list[str]:
     """Latency of one pose and one sweep step (four-bar, RSSR), the RSSR batch per
-    position at 1e3 / 1e4 / 1e5 positions (1e5 skipped when ``quick``) with its memory
+    position at 1e3 / 1e4 / 1e5 positions (1e5 timed once when ``quick``) with its memory
     per position, and building a mechanism of V chains; each beside its baseline
     (``least_squares`` lm per pose with the analytic Jacobian, the vectorised
     closed-form Newton), with the ratio.  Returns Markdown lines."""
@@ -136,11 +136,11 @@ def bench_closure_speed(quick: bool = False) -> list[str]:
     out += ["| positions | engine µs / position | closed-form Newton µs / position | ratio "
             "engine / closed form | retained B / position | peak B / position | max error vs "
             "closed form (rad) |", "|---|---|---|---|---|---|---|"]
-    sizes = (1_000, 10_000) if quick else (1_000, 10_000, 100_000)
+    sizes = (1_000, 10_000, 100_000)
     for n in sizes:
         x = np.linspace(-np.pi, np.pi, n, endpoint=False) - phi0
         guess = _rssr_guesses(m, x)
-        rep = 3 if n <= 10_000 else 1
+        rep = 3 if n <= 10_000 else (1 if quick else 3)
         t = _cpu(lambda: m.solve(x, guess=guess), rep) / n
         psi_g = psi0 + guess.q[:, col]
         t_cf = _cpu(lambda: _rssr_closed_newton(phi0 + x, psi_g), 5) / n
@@ -153,32 +153,65 @@ def bench_closure_speed(quick: bool = False) -> list[str]:
         out.append(f"| {n:,} | {t * us:.2f} | {t_cf * us:.3f} | {t / t_cf:.0f}× | "
                    f"{kept / n:,.0f} | {peak / n:,.0f} | {err:.1e} |")
     out += ["", "Retained: what the returned `Pose` holds (tracemalloc, after the call); peak: "
-            "the call's peak including its temporaries (chunks of 2,048 positions).  Targets: "
+            "the call's peak including its temporaries (one kernel call corrects every guess "
+            "and continues from it, each position's kinematic state in the kernel's scratch: "
+            "a few KB per call, allocated by numba, which tracemalloc does not see).  Targets: "
             "≤ 5 µs and ≤ 1 KB per position.", ""]
     # ------------------------------------------------------------ chains of loops
     import closure.lstsq as lstsq
+    import closure.solver as solver
     from linkwright.references import fourbar_chain
-    out += ["| four-bars in series N | unknowns | one pose µs | batch of 200, µs / position | "
-            "same, BLAS threads as installed | ratio |", "|---|---|---|---|---|---|"]
+    out += ["| four-bars in series N | unknowns | one pose µs | same, dense factorisation µs | "
+            "batch of 200, µs / position | same, dense | ratio dense / block | batch µs / "
+            "position / loop | condition read, batch of 200, µs / position: BLAS on one "
+            "thread | BLAS threads as installed | ratio |",
+            "|---|---|---|---|---|---|---|---|---|---|---|"]
     xb = np.linspace(-0.05, 0.05, 200)
-    for n in ((1, 4, 16) if quick else (1, 2, 4, 8, 16)):
+    for n in ((1, 4, 16, 64) if quick else (1, 2, 4, 8, 16, 32, 64)):
         m = fourbar_chain(n)
         p0 = m.solve(0.0)
         xs1 = 0.02 + 0.004 * np.arange(n_one)
         m.solve(xs1[0], guess=p0)
-        t_one = _cpu(lambda: [m.solve(x, guess=p0) for x in xs1], 5) / n_one
-        t_b = _cpu(lambda: m.solve(xb, guess=p0), 3) / xb.size
-        keep, lstsq.SERIAL_BLAS_ENTRIES = lstsq.SERIAL_BLAS_ENTRIES, np.inf
-        try:
-            t_t = _cpu(lambda: m.solve(xb, guess=p0), 3) / xb.size
-        finally:
-            lstsq.SERIAL_BLAS_ENTRIES = keep
-        out.append(f"| {n} | {2 * n} | {t_one * us:.0f} | {t_b * us:.0f} | {t_t * us:.0f} | "
-                   f"{t_t / t_b:.1f}× |")
-    out += ["", "One input drives N four-bars (each rocker the next crank).  The engine's "
-            "batched factorisations run BLAS on one thread (threadpoolctl) where the matrices "
-            "are big enough for BLAS to thread; the last columns let BLAS thread as installed "
-            "(CPU time, all threads).  Target: cost per pose linear in N.", ""]
+        rep = 3 if n < 64 else 1
+
+        def dense(fn):
+            solver.DENSE_LSQ = True
+            try:
+                return fn()
+            finally:
+                solver.DENSE_LSQ = False
+        t_one = _cpu(lambda: [m.solve(x, guess=p0) for x in xs1], rep + 2) / n_one
+        t_one_d = dense(lambda: _cpu(lambda: [m.solve(x, guess=p0) for x in xs1], rep)) / n_one
+        t_b = _cpu(lambda: m.solve(xb, guess=p0), rep) / xb.size
+        t_b_d = dense(lambda: _cpu(lambda: m.solve(xb, guess=p0), rep)) / xb.size
+        cells = ["—", "—", "—"]
+        if n <= 16:                     # numpy's batched SVD of the Jacobians (cubic in N)
+            pb = m.solve(xb, guess=p0)
+            S = pb.kinematics().S
+
+            def cond():
+                return m.plan.condition(S, np.arange(xb.size))
+            t_c = _cpu(cond, 3) / xb.size
+            keep, lstsq.SERIAL_BLAS_ENTRIES = lstsq.SERIAL_BLAS_ENTRIES, np.inf
+            try:
+                t_ct = _cpu(cond, 3) / xb.size
+            finally:
+                lstsq.SERIAL_BLAS_ENTRIES = keep
+            cells = [f"{t_c * us:.0f}", f"{t_ct * us:.0f}", f"{t_ct / t_c:.1f}×"]
+        out.append(f"| {n} | {3 * n} | {t_one * us:.0f} | {t_one_d * us:.0f} | {t_b * us:.0f} | "
+                   f"{t_b_d * us:.0f} | {t_b_d / t_b:.1f}× | {t_b / n * us:.1f} | "
+                   + " | ".join(cells) + " |")
+    out += ["", "One input drives N four-bars (each rocker the next crank): N loops sharing one "
+            "joint each, a block-bidiagonal Jacobian (6N rows, 3N unknowns).  The solver "
+            "factors its Gram matrix on its envelope (block-sparse Cholesky, "
+            "`closure.solve_kernels._sp_factor`); \"dense\": the same solver with every "
+            "Jacobian factored densely (`closure.solver.DENSE_LSQ`, the engine before the "
+            "block-sparse path), the same iterations.  Target: cost per pose linear in N "
+            "(flat µs / position / loop).  Condition read: the exact condition numbers "
+            "(numpy's batched SVD without the vectors) of the batch's poses, with BLAS limited "
+            "to one thread (threadpoolctl) as the engine does for matrices of at least "
+            f"{lstsq.SERIAL_BLAS_ENTRIES} entries, and with BLAS threads as installed (CPU "
+            "time, all threads).", ""]
     # ------------------------------------------------------------ building V chains
     out += ["| chains V | build µs / chain |", "|---|---|"]
     for V in ((100, 1000) if quick else (100, 1000, 10_000)):

@@ -17,6 +17,12 @@ differences).  Q collects gravity, springs, dampers and given joint forces,
 mapped through the analogs of their joints.  Forward dynamics integrates x, ẋ
 with scipy's ``solve_ivp`` and solves the dependent coordinates by the
 engine at every step (coordinate partitioning).
+
+The terms are formed by the compiled kernels of :mod:`closure.dynamics_kernels`
+(about each body's centre of mass), and forward dynamics' right-hand side is three
+compiled calls there and in the position solver (predictor, Newton, terms and
+``M⁻¹ (Q − h)``); only given joint forces and drives (Python callables) and poses
+near a singular configuration are handled pose by pose in Python.
 """
 from __future__ import annotations
 
@@ -29,9 +35,9 @@ import pandas as pd
 from .checks import real_number
 from .errors import ClosureError, MechanismError
 from .frames import _cross, as_array, as_index, as_number, input_rates, skew
-from .kinematics import _bias, analogs, link_twists
+from .kinematics import _check_pose
 from .pose import REACHED, Pose
-from .solver import TANGENT_COND, SolverOptions, _take_pose
+from .solver import TANGENT_COND, SolverOptions, _serial_blas_for, _take_pose
 
 __all__ = ["Body", "Dynamics", "ReducedDynamics", "pseudo_inertia"]
 
@@ -195,92 +201,69 @@ class Dynamics:
         self.elements.append(_JointElement(c, qc, "force", func))
 
     # ------------------------------------------------------------ terms
-    def _link_inertias(self, link_poses):
-        """World spatial inertias Λ (B, nb, 6, 6) and com positions (B, nb, 3) of the bodies."""
-        li = [self.m.links.index(b.link) for b in self.bodies]
-        A = link_poses[:, li]
-        R, p = A[..., :3, :3], A[..., :3, 3]
-        m = np.array([b.mass for b in self.bodies])
-        c = np.einsum("bkij,kj->bki", R, np.array([b.com for b in self.bodies])) + p
-        Ic = np.einsum("bkij,kjl,bkml->bkim", R, np.array([b.inertia for b in self.bodies]), R)
-        C = skew(c)
-        Lam = np.zeros(A.shape[:2] + (6, 6))
-        Lam[..., :3, :3] = m[:, None, None] * np.eye(3)
-        Lam[..., :3, 3:] = -m[:, None, None] * C
-        Lam[..., 3:, :3] = m[:, None, None] * C
-        Lam[..., 3:, 3:] = Ic - m[:, None, None] * (C @ C)
-        return Lam, c, m
+    def _packed(self):
+        """The compiled kernels' view of this model (:func:`closure.dynamics_kernels.pack`):
+        ``(plan, DI, DF)``, packed afresh (bodies, elements and gravity may change between
+        calls)."""
+        from . import dynamics_kernels
+        plan = self.m.plan
+        return plan, *dynamics_kernels.pack(self, plan)
 
-    def terms(self, pose: Pose, xd, t=0.0, _first_out=None):
-        # _first_out (internal, simulate): receives the first analogs of ``pose`` and the
-        # powers of dampers ("dissipated") and given joint forces ("work"), (B,) each
+    def _evaluate(self, pose: Pose, xd, t=0.0):
+        """M, h, Q (given joint forces included), the coordinate rates, first analogs, the
+        dampers' and given forces' powers (``dissipated``, ``work``) and the gravity and
+        spring energies at ``pose`` and rates ``xd`` (B, n): one call of the compiled
+        :func:`closure.dynamics_kernels.step` (task ``TERMS``), the given forces (Python
+        callables) added here through the first analogs."""
+        from . import dynamics_kernels as dk
+        from .integrate import RHS_COND
+        from .lstsq import _expected_rank
+        from .solver import _DEFAULT_OPTIONS
+        from .state import _arr
+        mech = self.m
+        B, n = len(pose), len(mech.inputs)
+        plan, DI, DF = self._packed()
+        nv, nq = plan.nv, plan.nq
+        fopts, iopt = dk.options(_DEFAULT_OPTIONS, _expected_rank(mech), RHS_COND, n, nv, nq)
+        lay = dk.layout(n, nv, nq)
+        size = lay["size"]
+        buf = np.zeros(B * size)
+        y = _arr(np.broadcast_to(xd, (B, n))).reshape(-1)
+        z1, zi = np.zeros(1), np.zeros(1, dtype=np.int64)
+        dk.step(dk.TERMS, *plan.packed, DI, DF, fopts, iopt, plan._ucols, plan._icols,
+                _arr(pose.q), _arr(pose.rot), _NO_LINK, _NO_S, z1, z1, zi, zi, z1, _NO_ROT, z1,
+                _NO_FIRST, y, buf)
+        blocks = buf.reshape(B, size)
+
+        def field(name, shape):
+            o = lay[name]
+            return blocks[:, o:o + int(np.prod(shape))].reshape((B,) + shape).copy()
+        M, h, Q = field("M", (n, n)), field("h", (n,)), field("Q", (n,))
+        first, qd, en = field("first", (nv, n)), field("qd", (nv,)), field("en", (3,))
+        work = np.zeros(B)
+        for e in self.elements:
+            if e.kind != "force":
+                continue
+            q = pose.q[:, e.qcolumn]
+            tau = np.broadcast_to(np.asarray(e.value(t, q, qd[:, e.column]), float), (B,))
+            Q += first[:, e.column, :] * tau[:, None]
+            work += tau * qd[:, e.column]
+        return M, h, Q, qd, first, en[:, 0], work, en[:, 1], en[:, 2]
+
+    def terms(self, pose: Pose, xd, t=0.0):
         """M (B, n, n), h (B, n), applied forces Q (B, n) and the coordinate rates (B, nv).
 
         ``Q`` holds gravity, springs, dampers and given joint forces (not drives)."""
-        mech = self.m
-        B = len(pose)
-        if _first_out is None:        # a public call (simulate passes the integrator's state)
-            xd = input_rates(xd, "terms: xd", (B, len(mech.inputs)))
-        xd = np.broadcast_to(np.asarray(xd, float), (B, len(mech.inputs)))
-        ks = pose.kinematics()
-        first, second = analogs(mech, pose, ks=ks)
-        if _first_out is not None:
-            _first_out["first"], _first_out["first_of"] = first, pose
-            _first_out["dissipated"], _first_out["work"] = np.zeros(B), np.zeros(B)
-        n = first.shape[2]
-        qd = np.einsum("bci,bi->bc", first, xd)
-        M = np.zeros((B, n, n))
-        h = np.zeros((B, n))
-        Q = np.zeros((B, n))
-        if self.bodies:
-            li = [mech.links.index(b.link) for b in self.bodies]
-            Gam = np.stack([link_twists(mech, ks, first[:, :, i])[:, li] for i in range(n)], -1)
-            qdd0 = np.einsum("bcij,bi,bj->bc", second, xd, xd)
-            acc0 = (link_twists(mech, ks, qdd0)
-                    + np.einsum("lc,bcs->bls", mech.tree.path_sign, _bias(mech, ks, qd, qd)))[:, li]
-            V = np.einsum("bksi,bi->bks", Gam, xd)
-            Lam, c, m = self._link_inertias(ks["link"])
-            LV = np.einsum("bkst,bkt->bks", Lam, V)
-            # V ×* (Λ V) for wrenches (f, m): (ω × f, v × f + ω × m)
-            w, v = V[..., 3:], V[..., :3]
-            cross_star = np.concatenate([_cross(w, LV[..., :3]),
-                                         _cross(v, LV[..., :3]) + _cross(w, LV[..., 3:])], -1)
-            M = np.einsum("bksi,bkst,bktj->bij", Gam, Lam, Gam)
-            h = np.einsum("bksi,bks->bi", Gam,
-                          np.einsum("bkst,bkt->bks", Lam, acc0) + cross_star)
-            f = np.broadcast_to(m[None, :, None] * self.gravity, c.shape)
-            Wg = np.concatenate([f, _cross(c, f)], -1)
-            Q += np.einsum("bksi,bks->bi", Gam, Wg)
-        for e in self.elements:
-            q = pose.q[:, e.qcolumn]
-            if e.kind == "spring":
-                tau = -e.value * (q - e.free)
-            elif e.kind == "damper":
-                tau = -e.value * qd[:, e.column]
-            else:
-                tau = np.broadcast_to(np.asarray(e.value(t, q, qd[:, e.column]), float), (B,))
-            Q += first[:, e.column, :] * tau[:, None]
-            if _first_out is not None:        # the element powers, for the energy balance
-                p = tau * qd[:, e.column]
-                if e.kind == "damper":
-                    _first_out["dissipated"] -= p
-                elif e.kind == "force":
-                    _first_out["work"] += p
-        return M, h, Q, qd
+        _check_pose(self.m, pose, "terms")
+        xd = input_rates(xd, "terms: xd", (len(pose), len(self.m.inputs)))
+        return self._evaluate(pose, xd, t)[:4]
 
     def energy(self, pose: Pose, xd) -> dict:
         """Kinetic, gravitational and spring energy (J), each (B,)."""
+        _check_pose(self.m, pose, "energy")
         xd = input_rates(xd, "energy: xd", (len(pose), len(self.m.inputs)))
-        M, _, _, _ = self.terms(pose, xd)
-        xd = np.broadcast_to(np.asarray(xd, float), (len(pose), len(self.m.inputs)))
+        M, _, _, _, _, _, _, Vg, Vs = self._evaluate(pose, xd)
         T = 0.5 * np.einsum("bi,bij,bj->b", xd, M, xd)
-        Vg = np.zeros(len(pose))
-        if self.bodies:
-            ks = self.m.kinematic_state(pose.state, twists=False)
-            _, c, m = self._link_inertias(ks["link"])
-            Vg = -np.einsum("k,bki,i->b", m, c, self.gravity)
-        Vs = sum(0.5 * e.value * (pose.q[:, e.qcolumn] - e.free) ** 2
-                 for e in self.elements if e.kind == "spring") + np.zeros(len(pose))
         return {"kinetic": T, "gravity": Vg, "spring": Vs, "total": T + Vg + Vs}
 
 
@@ -379,38 +362,14 @@ class Dynamics:
         opts = options or SolverOptions()
         start = mech.solve(x0, guess=guess, options=opts)
         start.scalar = False
-        tracker = PoseTracker(mech, start, opts, xd0 if np.any(xd0) else np.eye(n)[0])
-        buf = {}
-
-        def terms_of(xd, t):
-            def fn(p):
-                M, h, Q, _ = self.terms(p, np.broadcast_to(xd, (len(p), n)), t, _first_out=buf)
-                return M, h, Q, buf["first"], buf["dissipated"], buf["work"]
-            return fn
-
-        def rhs(t, y):
-            x, xd = y[:n], y[n:2 * n]
-            p = tracker.at(x)
-            M, h, Q, first, diss, work = regular_limit(mech, p, tracker.first, terms_of(xd, t),
-                                                       opts)
-            buf["dissipated"], buf["work"] = diss, work
-            tracker.tangent(p, first[0])
-            F = Q[0] - h[0]
-            tau = None
-            if drive is not None:
-                tau = np.asarray(drive(t, x, xd), float).reshape(n)
-                F = F + tau
-            if not np.all(np.isfinite(F)):
-                raise MechanismError(f"simulate: non-finite generalised force at t = {t:.6g} "
-                                     f"(drive or joint-force functions returned NaN or inf)")
-            xdd = np.linalg.solve(M[0], F)
-            dw = buf["work"][0] + (float(tau @ xd) if tau is not None else 0.0)
-            return np.r_[xd, xdd, buf["dissipated"][0], dw]
-
+        tracker = PoseTracker(mech, start, opts, xd0 if np.any(xd0) else np.eye(n)[0],
+                              dynamics=self._packed()[1:])
+        rhs = self._rhs(tracker, drive, opts)
         y0 = np.r_[x0, xd0, 0.0, 0.0]
-        run = integrate(rhs, tracker, (t0, t1), y0, method=method, rtol=rtol, atol=atol,
-                        stop_at_dead_point=stop_at_dead_point, cond_limit=opts.cond_limit,
-                        ivp_kw=ivp_kw)
+        with _serial_blas_for(mech.plan, mech.plan._ucols.size):    # as the solver's Newton
+            run = integrate(rhs, tracker, (t0, t1), y0, method=method, rtol=rtol, atol=atol,
+                            stop_at_dead_point=stop_at_dead_point, cond_limit=opts.cond_limit,
+                            ivp_kw=ivp_kw)
         t_out = None
         if t_eval is not None:
             t_out = np.asarray(t_eval, float).ravel()
@@ -431,28 +390,125 @@ class Dynamics:
                                                                   "total")), opts)
             for key, v in zip(("kinetic", "gravity", "spring", "total"), lim):
                 en[key][i] = v[0]
-        out = pd.DataFrame({"t": t_out})
+        cols = {"t": t_out}                        # the table's columns, built at once
         for k, lab in enumerate(mech.input_labels()):
-            out[lab] = X[:, k]
-            out[f"rate:{lab}"] = XD[:, k]
-        vals = pd.DataFrame(pose.values(), columns=[f"q:{c}" for c in mech.coordinate_labels()])
-        out = pd.concat([out, vals], axis=1)
-        out["kinetic"] = en["kinetic"]
-        out["potential"] = en["gravity"] + en["spring"]
-        out["energy"] = en["total"]
-        out["dissipated"] = Y[2 * n]
-        out["work"] = Y[2 * n + 1]
+            cols[lab] = X[:, k]
+            cols[f"rate:{lab}"] = XD[:, k]
+        vals = pose.values()
+        for k, c in enumerate(mech.coordinate_labels()):
+            cols[f"q:{c}"] = vals[:, k]
+        cols["kinetic"] = en["kinetic"]
+        cols["potential"] = en["gravity"] + en["spring"]
+        cols["energy"] = en["total"]
+        cols["dissipated"] = Y[2 * n]
+        cols["work"] = Y[2 * n + 1]
         e0 = regular_limit(mech, start, tracker.first,
                            lambda p: (self.energy(p, np.broadcast_to(xd0, (len(p), n)))["total"],),
                            opts)[0][0]
-        out["balance"] = out.energy + out.dissipated - out.work - e0
-        out["residual"] = pose.residual
-        out["condition"] = pose.condition
-        out["flag"] = _row_flags(out, opts.cond_limit, rtol)
+        cols["balance"] = cols["energy"] + cols["dissipated"] - cols["work"] - e0
+        cols["residual"] = pose.residual
+        cols["condition"] = pose.condition
+        cols["flag"] = _row_flags(cols, opts.cond_limit, rtol)
+        out = pd.DataFrame(cols)
         out.attrs["ivp"] = sol
         out.attrs["status"] = "completed" if sol.status == 0 else "dead point"
         out.attrs["message"] = sol.message
         return out
+
+    def _rhs(self, tracker, drive, opts: SolverOptions):
+        """Forward dynamics' right-hand side ``rhs(t, y)``, y = (x, ẋ, dissipated, work).
+
+        The tracker (made with this model's kernel data) predicts the pose from its last
+        one, the solver's Newton corrects it, and :func:`closure.dynamics_kernels.step`
+        (task ``RHS``) forms the terms there and ``M⁻¹ (Q − h)`` and moves the tracker on;
+        drives and given joint forces (Python callables) are added here as ``M⁻¹ F``.  A
+        pose whose condition number exceeds :data:`closure.integrate.RHS_COND` takes
+        :func:`closure.integrate.regular_limit` (the dynamics as their limit along the
+        branch, by the same kernels); a pose that does not close raises ClosureError (the
+        integrator stops there: a dead point)."""
+        from . import dynamics_kernels as dk
+        from .integrate import regular_limit
+        from .state import _arr
+        mech = self.m
+        n = len(mech.inputs)
+        forces = [e for e in self.elements if e.kind == "force"]
+        extra = drive is not None or bool(forces)
+        lay, buf = tracker.layout, tracker.buf
+
+        def view(name, shape):
+            o = lay[name]
+            return buf[o:o + int(np.prod(shape))].reshape(shape)
+        out, Minv = view("out", (2 * n + 2,)), view("Minv", (n, n))
+        first, qd, q = view("first", (mech.tree.nv, n)), view("qd", (mech.tree.nv,)), \
+            view("q", (mech.tree.nq,))
+        solve, RHS = tracker.solve, dk.RHS
+
+        def bad_force(t):
+            return MechanismError(f"simulate: non-finite generalised force at t = {t:.6g} "
+                                  f"(drive or joint-force functions returned NaN or inf)")
+
+        def terms_of(xd, t):
+            def fn(p):
+                M_, h_, Q_, _, first_, diss, work = self._evaluate(
+                    p, np.broadcast_to(xd, (len(p), n)), t)[:7]
+                return M_, h_, Q_, first_, diss, work
+            return fn
+
+        def by_pose(t, y, code):
+            """The pose-by-pose path: a pose that does not close, a near-singular pose
+            (the limit along the branch), or terms the kernel could not solve with."""
+            x, xd = y[:n], y[n:2 * n]
+            if code == dk.NOT_CLOSED:
+                raise tracker.not_closed(x)
+            p = tracker.pose
+            M_, h_, Q_, first_, diss, work = regular_limit(mech, p, tracker.first,
+                                                           terms_of(xd, t), opts)
+            tracker.tangent(p, first_[0])
+            F = Q_[0] - h_[0]
+            tau = None
+            if drive is not None:
+                tau = np.asarray(drive(t, x, xd), float).reshape(n)
+                F = F + tau
+            if not np.all(np.isfinite(F)):
+                raise bad_force(t)
+            xdd = np.linalg.solve(M_[0], F)
+            dw = work[0] + (float(tau @ xd) if tau is not None else 0.0)
+            return np.r_[xd, xdd, diss[0], dw]
+
+        def rhs(t, y):
+            if y.dtype != np.float64 or not y.flags.c_contiguous:
+                y = _arr(y)
+            code = solve(RHS, y)
+            if code:
+                return by_pose(t, y, code)
+            if not extra:
+                return out.copy()
+            xd = y[n:2 * n]
+            F = np.zeros(n)
+            dw = 0.0
+            for e in forces:                      # given joint forces, through the analogs
+                rate = qd[[e.column]]
+                tau = np.broadcast_to(np.asarray(e.value(t, q[[e.qcolumn]], rate), float),
+                                      (1,))
+                F += first[e.column] * tau[0]
+                dw += float(tau[0] * rate[0])
+            if drive is not None:
+                tau = np.asarray(drive(t, y[:n], xd), float).reshape(n)
+                F += tau
+                dw += float(tau @ xd)
+            if not np.all(np.isfinite(F)):
+                raise bad_force(t)
+            res = out.copy()
+            res[n:2 * n] += Minv @ F
+            res[2 * n + 1] = dw
+            return res
+
+        return rhs
+
+
+#: placeholders for the arguments of closure.dynamics_kernels.step that TERMS does not use
+_NO_LINK, _NO_S = np.zeros((1, 0, 4, 4)), np.zeros((1, 0, 6))
+_NO_ROT, _NO_FIRST = np.zeros((0, 3, 3)), np.zeros((0, 0))
 
 
 def _finite_vector(v, n, name):
@@ -513,13 +569,16 @@ def _simulate_arguments(n, x0, xd0, rtol, atol, drive, t_span):
     return x0, xd0, t0, t1
 
 
-def _row_flags(out: pd.DataFrame, cond_limit: float, rtol: float) -> list:
-    """Why each output row is doubtful (empty string when it is not)."""
-    scale = (np.abs(out.kinetic).max() + np.ptp(out.potential) + np.abs(out.work).max()
-             + np.abs(out.dissipated).max())
+def _row_flags(out, cond_limit: float, rtol: float) -> list:
+    """Why each output row is doubtful (empty string when it is not); ``out`` maps the
+    columns ``kinetic, potential, work, dissipated, condition, balance`` to arrays."""
+    if len(out["condition"]) == 0:
+        return []
+    scale = (np.abs(out["kinetic"]).max() + np.ptp(out["potential"]) + np.abs(out["work"]).max()
+             + np.abs(out["dissipated"]).max())
     tol = max(1e-6, 1e4 * rtol) * max(scale, 1e-300)
     flags = []
-    for c, b in zip(out.condition.to_numpy(), out.balance.to_numpy()):
+    for c, b in zip(np.asarray(out["condition"]), np.asarray(out["balance"])):
         f = []
         if c > cond_limit:
             f.append(f"near-singular (condition {c:.2e})")

@@ -74,23 +74,108 @@ class PoseTracker:
     analogs) to the new inputs, and corrects by Newton.  The tangent of a pose whose
     condition exceeds ``TANGENT_COND`` is not trusted (at a singular configuration
     it is not unique): the previous tangent is kept, so the motion leaves a
-    crossing on the branch it came in on."""
+    crossing on the branch it came in on.
 
-    def __init__(self, mech, pose: Pose, opts: SolverOptions, direction):
+    The last pose is kept as arrays (``q``, ``rot``, inputs ``x``; its figures in
+    ``fig``) with the tangent ``first`` (nv, ni), all updated in place by the compiled
+    kernels: :func:`closure.dynamics_kernels.step` predicts, the solver's Newton
+    (:func:`closure.solve_kernels.drive`) corrects, ``step`` judges and moves the base
+    (here, and in forward dynamics' right-hand side with the terms at the pose:
+    ``dynamics`` = the ``(DI, DF)`` of :func:`closure.dynamics_kernels.pack`).
+    ``pose`` is the :class:`Pose` of those arrays."""
+
+    def __init__(self, mech, pose: Pose, opts: SolverOptions, direction, dynamics=None):
+        from . import dynamics_kernels as dk
+        from .lstsq import _expected_rank
+        from .solver import _NO_T, _NO_X
         self.m, self.opts = mech, opts
-        self.pose = pose
-        self.first = branch_tangent(mech, pose, direction, opts)
+        self._k = dk
+        plan = mech.plan
+        n = len(mech.inputs)
+        nv, nq = plan.nv, plan.nq
+        rank = _expected_rank(mech)
+        self.fopts, self.iopt = dk.options(opts, rank, RHS_COND, n, nv, nq)
+        self.layout = dk.layout(n, nv, nq)
+        self.first = np.array(branch_tangent(mech, pose, direction, opts), dtype=float)
+        self.q = np.array(pose.q[0], dtype=float)
+        self.rot = np.array(pose.rot[0], dtype=float)
+        self.x = np.array(pose.inputs[0], dtype=float)
+        #: a member's block of the kernels' outputs (closure.dynamics_kernels.layout)
+        self.buf = np.zeros(self.layout["size"])
+        o = self.layout["fig"]
+        #: residual, iterations, condition (NaN: at most RHS_COND, not computed), converged,
+        #: closed: of the last pose the kernels solved
+        self.fig = self.buf[o:o + 5]
+        self._pose: Pose | None = pose
+        # the solver's batch-of-one state, corrected in place by its Newton
+        ns, nj, nl, nc = plan.ns, plan.nj, plan.nl, plan.chords.size
+        q1, rot1 = np.zeros((1, nq)), np.zeros((1, ns, 3, 3))
+        A1, link1, fa1 = np.zeros((1, nj, 4, 4)), np.zeros((1, nl, 4, 4)), np.zeros((1, nj, 4, 4))
+        r1, S1, first1 = np.zeros((1, nc, 6)), np.zeros((1, nv, 6)), np.zeros((1, nv, n))
+        res1, cond1, last1 = np.zeros(1), np.zeros(1), np.zeros(1)
+        its1, flag1 = np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64)
+        sk = plan._kernels
+        self._newton = sk.drive
+        self._newton_args = (sk.NEWTON, *plan.packed, _NO_X, _NO_X, q1, rot1, A1, link1, fa1, r1,
+                             S1, first1, res1, cond1, last1, its1, flag1, _NO_T, False,
+                             self.fopts, opts.maxiter, rank, plan._ucols, plan._icols, _NO_X)
+        DI, DF = dynamics if dynamics is not None else dk.NO_DYNAMICS
+        #: the arguments of closure.dynamics_kernels.step before ``y`` and ``buf``
+        self.step_args = (*plan.packed, DI, DF, self.fopts, self.iopt, plan._ucols, plan._icols,
+                          q1, rot1, link1, S1, res1, cond1, its1, flag1, self.q, self.rot, self.x,
+                          self.first)
+
+    @property
+    def pose(self) -> Pose:
+        """The last solved pose."""
+        if self._pose is None:
+            self._pose = self._figures_pose(self.x)
+        return self._pose
+
+    def _figures_pose(self, x) -> Pose:
+        """The Pose of the arrays and figures (a condition left NaN computed here)."""
+        fig = self.fig
+        cond = np.array([fig[2]])
+        p = Pose(self.m, np.array(x, dtype=float).reshape(1, -1), self.q[None].copy(),
+                 self.rot[None].copy(), np.array([fig[0]]), np.array([int(fig[1])]), cond,
+                 np.zeros(1, dtype=int), _cond_pending=bool(np.isnan(cond[0])))
+        p.status = _status(self.m, p.residual, p.condition, np.array([bool(fig[3])]),
+                           self.opts)
+        return p
+
+    def not_closed(self, x) -> ClosureError:
+        """The error of inputs ``x`` where the last correction did not close."""
+        fig = self.fig
+        X = np.array(x, dtype=float).reshape(1, -1)
+        r, c = np.array([fig[0]]), np.array([fig[2]])
+        return ClosureError(f"the loops do not close at x = {X[0].tolist()} (residual "
+                            f"{r[0]:.2e}, condition {c[0]:.2e}): the motion reached past a fold "
+                            "of the loop equations", inputs=X, residual=r, condition=c)
+
+    def solve(self, task: int, y: np.ndarray) -> int:
+        """Predict, correct and judge the pose at the inputs ``y[:ni]`` (a contiguous float
+        array; ``task`` TRACK or RHS of :func:`closure.dynamics_kernels.step`, whose code
+        is returned); the base moves unless the pose does not close."""
+        k = self._k
+        k.step(k.PREDICT, *self.step_args, y, self.buf)
+        self._newton(*self._newton_args)
+        code = k.step(task, *self.step_args, y, self.buf)
+        if code != k.NOT_CLOSED:
+            self._pose = None
+        return code
 
     def tangent(self, pose: Pose, first: np.ndarray) -> None:
         """Adopt ``first`` (nv, ni) as the tangent at ``pose`` unless it is singular."""
         if pose.condition[0] <= TANGENT_COND:
-            self.first = first
+            self.first[...] = first
 
     def at(self, x: np.ndarray) -> Pose:
         """The pose at inputs ``x`` (n,), on the branch of the last pose."""
-        p = solve_along(self.m, self.pose, self.first, np.asarray(x, float)[None], self.opts)
-        self.pose = p
-        return p
+        x = np.array(x, dtype=float).reshape(-1)
+        if self.solve(self._k.TRACK, x):
+            raise self.not_closed(x)
+        self._pose = self._figures_pose(x)
+        return self._pose
 
 
 def solve_along(mech, base: Pose, first: np.ndarray, X: np.ndarray, opts: SolverOptions) -> Pose:

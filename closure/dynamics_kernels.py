@@ -1,0 +1,567 @@
+"""Compiled kernels of the dynamics (numba): the terms of Lagrange's equations at solved
+poses, and the steps of forward dynamics' right-hand side around the solver's Newton.
+
+:func:`step`, task ``TERMS``, forms for every pose of a batch what
+:meth:`closure.Dynamics.terms` returns: the first analogs of every coordinate from the
+loop Jacobian (the minimum-norm solve of :class:`closure.lstsq._LstSq`: the same
+compiled factorisation, Cholesky with iterative refinement or the truncated SVD, as
+:func:`closure.kinematics.analogs`), the coordinates' velocity-product accelerations
+``Σ_ij (d²q/dx_i dx_j) ẋ_i ẋ_j`` by one more solve with that factorisation (the column
+twist rates ``[V_c, S_c] q̇_c`` summed by the loop coefficients: the second analogs
+contracted with the rates, :mod:`closure.kinematics`), and from them, per body, the
+Jacobians of its centre-of-mass velocity and angular velocity and their
+velocity-product accelerations: ``M = Σ m J_vᵀ J_v + J_ωᵀ I_c J_ω``,
+``h = Σ m J_vᵀ a_c + J_ωᵀ (I_c α + ω × I_c ω)``, gravity ``Q = Σ m J_vᵀ g`` (Lagrange's
+equations in the Newton–Euler form of :mod:`closure.dynamics`, taken about each body's
+centre of mass rather than the world origin, so that a model far from the origin keeps
+its digits), springs and dampers on joint coordinates mapped through the first analogs,
+the dampers' power and the gravity and spring energies.
+
+Forward dynamics' right-hand side (:meth:`closure.Dynamics.simulate`,
+:class:`closure.integrate.PoseTracker`) is three compiled calls: ``step`` task
+``PREDICT`` moves the last solved pose along its tangent to the new inputs, the position
+solver's Newton corrects it (:func:`closure.solve_kernels.drive`, task ``NEWTON``: the
+iterations, tolerances and convergence test of :func:`closure.solver.newton`, one
+implementation for both), and task ``RHS`` judges the corrected pose (closed, its
+condition against the limit above which the dynamics are taken as their limit along the
+branch), forms the terms there and ``M⁻¹ (Q − h)`` with ``M⁻¹`` (the caller adds drives
+and given joint forces as ``M⁻¹ F``) and moves the tracker on; task ``TRACK`` judges
+without the terms (the integrator's step poses).  What the kernel cannot settle it
+reports instead (a pose that does not close, a near-singular one, a non-finite force, a
+mass matrix without a Cholesky factor) and the caller takes the pose-by-pose path.
+
+The mechanism's structure comes packed by :func:`closure.solve_kernels.pack`; the
+dynamics' own data by :func:`pack` here, into ``DI`` (int64: counts, offsets, each
+body's link, each column's carrier link and the columns that move its frame, each
+spring's and damper's coordinates) and ``DF`` (float64: gravity, each body's mass,
+centre of mass and inertia in its link frame, the tree's path signs, the loop
+coefficients, each element's coefficient and free value).
+
+numba compiles the kernels on first use (``cache=True``; about 12 s, once per
+installation).  They call kernels of :mod:`closure.solve_kernels`, whose compiled code
+numba copies into theirs, and numba's cache checks only the file of the function it
+caches: the cache index of every kernel here also carries the stamps of
+:mod:`closure.solve_kernels` and :mod:`closure.lstsq` (:func:`_njit`), so that a change
+there recompiles these kernels too.
+"""
+from __future__ import annotations
+
+import math
+import os
+
+import numba
+import numpy as np
+
+from . import lstsq as _lstsq_module
+from . import solve_kernels as _sk
+from .solve_kernels import (_JIT, F_COLSC, F_ROWMAP, H_NC, H_NJ, H_NL, H_NV, O_INQ, _apply,
+                            _lsq, _lsq_solve, _lsq_work, _scaled_jacobian, _svd_parts)
+from .solve_kernels import _evaluate as _evaluate_state
+
+__all__ = ["pack", "layout", "options", "step", "PREDICT", "TRACK", "RHS", "TERMS", "OK",
+           "NOT_CLOSED", "SINGULAR", "NON_FINITE", "NOT_SPD"]
+
+
+def _stamp(module) -> tuple:
+    st = os.stat(module.__file__)
+    return module.__name__, st.st_mtime, st.st_size
+
+
+#: the files whose compiled code the kernels here contain
+_DEPENDENCIES = (_stamp(_sk), _stamp(_lstsq_module))
+
+
+def _njit(fn):
+    """``numba.njit`` with the options of :mod:`closure.solve_kernels`, the cache index
+    stamped with the files this module's kernels depend on (see the module notes)."""
+    disp = numba.njit(**_JIT)(fn)
+    cache_file = getattr(getattr(disp, "_cache", None), "_cache_file", None)
+    if cache_file is not None and hasattr(cache_file, "_source_stamp"):
+        cache_file._source_stamp = (cache_file._source_stamp, _DEPENDENCIES)
+    return disp
+
+
+# DI's header: counts, then the offsets of the tables in DI and DF
+(D_NB, D_NE, D_BLINK, D_CARRIER, D_DPTR, D_DIDX, D_ECOL, D_EQC, D_EKIND,
+ D_FBODY, D_FPSIGN, D_FLOOP, D_FELEM, D_HEAD) = range(14)
+
+#: element kinds
+SPRING, DAMPER = 0, 1
+
+#: ``(DI, DF)`` of no dynamics: the arguments of :func:`step`'s tasks that use none
+NO_DYNAMICS = (np.zeros(D_HEAD, dtype=np.int64), np.zeros(3))
+
+#: what :func:`step` reports
+OK, NOT_CLOSED, SINGULAR, NON_FINITE, NOT_SPD = 0, 1, 2, 3, 4
+
+
+def pack(dynamics, plan):
+    """The kernels' view of a :class:`closure.Dynamics`: ``(DI, DF)`` (module notes), from
+    its bodies, springs and dampers (given forces are evaluated by the caller) and the
+    compiled ``plan`` of its mechanism."""
+    mech = dynamics.m
+    t = mech.tree
+    nl, nv = len(t.links), t.nv
+    bodies = dynamics.bodies
+    lin = [e for e in dynamics.elements if e.kind in ("spring", "damper")]
+    blink = [t.link_index[b.link] for b in bodies]
+    dptr = np.cumsum([0] + [len(d) for d in plan.deps])
+    didx = [d for dep in plan.deps for d in dep]
+    ints = [blink, plan.carrier, dptr, didx, [e.column for e in lin],
+            [e.qcolumn for e in lin], [SPRING if e.kind == "spring" else DAMPER for e in lin]]
+    head = np.zeros(D_HEAD, dtype=np.int64)
+    head[D_NB], head[D_NE] = len(bodies), len(lin)
+    parts, n = [head], D_HEAD
+    for key, v in zip((D_BLINK, D_CARRIER, D_DPTR, D_DIDX, D_ECOL, D_EQC, D_EKIND), ints):
+        v = np.asarray(v, dtype=np.int64).reshape(-1)
+        head[key] = n
+        parts.append(v)
+        n += v.size
+    DI = np.concatenate(parts)
+    body = np.array([np.r_[b.mass, b.com, np.asarray(b.inertia, float).reshape(9)]
+                     for b in bodies], dtype=float).reshape(-1)
+    flts = [np.asarray(dynamics.gravity, float).reshape(3), body,
+            np.asarray(t.path_sign, float).reshape(nl * nv),
+            np.asarray(t.loop_coef, float).reshape(-1),
+            np.array([(e.value, e.free if e.kind == "spring" else 0.0) for e in lin],
+                     dtype=float).reshape(-1)]
+    parts, n = [], 0
+    for key, v in zip((-1, D_FBODY, D_FPSIGN, D_FLOOP, D_FELEM), flts):
+        if key >= 0:
+            DI[key] = n
+        parts.append(v)
+        n += v.size
+    return DI, np.concatenate(parts)
+
+
+# ---------------------------------------------------------------------- the terms
+@_njit
+def _work(PI, ni, nu):
+    """Scratch of :func:`_terms` for a mechanism with ``ni`` inputs and ``nu`` unknowns:
+    ``(W, Ju, Jin, R, X, R1, X1, Vl, bias, G, acc, Ic)``."""
+    nv, nc, nl = PI[H_NV], PI[H_NC], PI[H_NL]
+    m = 6 * nc
+    return (_lsq_work(m, nu, ni), np.zeros((m, nu)), np.zeros((m, ni)),
+            np.zeros((m, ni)), np.zeros((nu, ni)), np.zeros((m, 1)),
+            np.zeros((nu, 1)), np.zeros((nl, 6)), np.zeros((nv, 6)), np.zeros((ni, 6)),
+            np.zeros(6), np.zeros((3, 3)))
+
+
+@_njit
+def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qdd, M, h, Q,
+           en):
+    """The terms of one solved pose (link poses ``link``, column twists ``S``, stored
+    coordinates ``q``) at input rates ``xd``: first analogs ``first`` (nv, ni), rates
+    ``qd`` (nv), velocity-product accelerations ``qdd`` (nv), ``M`` (ni, ni), ``h``,
+    ``Q`` (ni) (gravity, springs, dampers), ``en`` = (dampers' power, gravity energy,
+    spring energy), all overwritten; ``wk`` the scratch of :func:`_work`.
+
+    Returns ``(fast, bound)``: ``fast`` the Cholesky path was taken, ``bound`` then the
+    estimate ``sqrt(‖J‖²_F · tr G⁻¹)`` (at least the condition number), else the
+    condition number of the truncated SVD."""
+    W, Ju, Jin, R, X, R1, X1, Vl, bias, G, acc, Ic = wk
+    nv, nc, nl = PI[H_NV], PI[H_NC], PI[H_NL]
+    m = 6 * nc
+    nu, ni = ucols.shape[0], icols.shape[0]
+    o_cs, o_rm = PI[F_COLSC], PI[F_ROWMAP]
+    o_ps, o_lp, o_car, o_dptr, o_didx = DI[D_FPSIGN], DI[D_FLOOP], DI[D_CARRIER], \
+        DI[D_DPTR], DI[D_DIDX]
+    # first analogs: the unknowns' minimum-norm solve of the input columns (analogs)
+    _scaled_jacobian(PI, PF, S, ucols, Ju)
+    _scaled_jacobian(PI, PF, S, icols, Jin)
+    fast, cond, inv0 = _lsq(Ju, rank, W)
+    if fast:
+        jj = 0.0
+        for a in range(m):
+            for k in range(nu):
+                jj += Ju[a, k] * Ju[a, k]
+        bound = math.sqrt(jj) * inv0
+    else:
+        bound = cond
+    for a in range(m):
+        for i in range(ni):
+            R[a, i] = Jin[a, i] / PF[o_cs + icols[i]]
+    _lsq_solve(Ju, fast, W[3], W[4], W[5], W[6], R, X, W[8], W[9])
+    for c in range(nv):
+        for i in range(ni):
+            first[c, i] = 0.0
+    for i in range(ni):
+        first[icols[i], i] = 1.0
+    for k in range(nu):
+        for i in range(ni):
+            first[ucols[k], i] = -X[k, i] * PF[o_cs + ucols[k]]
+    for c in range(nv):
+        s = 0.0
+        for i in range(ni):
+            s += first[c, i] * xd[i]
+        qd[c] = s
+    # link twists of the rates, then each column's twist rate [V_c, S_c] q̇_c with V_c
+    # its carrier's twist (plus the joint's earlier coordinates that move its frame)
+    for li in range(nl):
+        for s in range(6):
+            v = 0.0
+            for c in range(nv):
+                p = DF[o_ps + nv * li + c]
+                if p != 0.0:
+                    v += p * (S[c, s] * qd[c])
+            Vl[li, s] = v
+    for c in range(nv):
+        car = DI[o_car + c]
+        for s in range(6):
+            acc[s] = Vl[car, s]
+        for x in range(DI[o_dptr + c], DI[o_dptr + c + 1]):
+            d = DI[o_didx + x]
+            for s in range(6):
+                acc[s] += S[d, s] * qd[d]
+        # [a, b] = (ω_a × v_b − ω_b × v_a, ω_a × ω_b)
+        v0, v1, v2, w0, w1, w2 = acc[0], acc[1], acc[2], acc[3], acc[4], acc[5]
+        sv0, sv1, sv2, sw0, sw1, sw2 = S[c, 0], S[c, 1], S[c, 2], S[c, 3], S[c, 4], S[c, 5]
+        r = qd[c]
+        bias[c, 0] = ((w1 * sv2 - w2 * sv1) - (sw1 * v2 - sw2 * v1)) * r
+        bias[c, 1] = ((w2 * sv0 - w0 * sv2) - (sw2 * v0 - sw0 * v2)) * r
+        bias[c, 2] = ((w0 * sv1 - w1 * sv0) - (sw0 * v1 - sw1 * v0)) * r
+        bias[c, 3] = (w1 * sw2 - w2 * sw1) * r
+        bias[c, 4] = (w2 * sw0 - w0 * sw2) * r
+        bias[c, 5] = (w0 * sw1 - w1 * sw0) * r
+    # velocity-product accelerations of the unknowns: J_u q̈_u = −Σ_c L_lc [V_c, S_c] q̇_c
+    for lp in range(nc):
+        for s in range(6):
+            v = 0.0
+            for c in range(nv):
+                L = DF[o_lp + nv * lp + c]
+                if L != 0.0:
+                    v += L * bias[c, s]
+            acc[s] = v
+        for s in range(6):
+            v = 0.0
+            for t in range(6):
+                v += PF[o_rm + 6 * s + t] * acc[t]
+            R1[6 * lp + s, 0] = v
+    _lsq_solve(Ju, fast, W[3], W[4], W[5], W[6], R1, X1, W[8], W[9])
+    for c in range(nv):
+        qdd[c] = 0.0
+    for k in range(nu):
+        qdd[ucols[k]] = -X1[k, 0] * PF[o_cs + ucols[k]]
+    # the bodies, about their centres of mass
+    for i in range(ni):
+        for j in range(ni):
+            M[i, j] = 0.0
+        h[i] = 0.0
+        Q[i] = 0.0
+    g0, g1, g2 = DF[0], DF[1], DF[2]
+    vg = 0.0
+    o_b, o_bl = DI[D_FBODY], DI[D_BLINK]
+    for kb in range(DI[D_NB]):
+        li = DI[o_bl + kb]
+        o = o_b + 13 * kb
+        mass = DF[o]
+        # Γ (input columns of the link's world twist) and the velocity-product acceleration
+        for i in range(ni):
+            for s in range(6):
+                G[i, s] = 0.0
+        for s in range(6):
+            acc[s] = 0.0
+        for c in range(nv):
+            p = DF[o_ps + nv * li + c]
+            if p != 0.0:
+                for s in range(6):
+                    acc[s] += p * (S[c, s] * qdd[c] + bias[c, s])
+                for i in range(ni):
+                    f = first[c, i]
+                    if f != 0.0:
+                        for s in range(6):
+                            G[i, s] += p * (S[c, s] * f)
+        # centre of mass c = R com + p and the inertia I_c = R I Rᵀ in the world
+        c0 = link[li, 0, 3] + link[li, 0, 0] * DF[o + 1] + link[li, 0, 1] * DF[o + 2] + \
+            link[li, 0, 2] * DF[o + 3]
+        c1 = link[li, 1, 3] + link[li, 1, 0] * DF[o + 1] + link[li, 1, 1] * DF[o + 2] + \
+            link[li, 1, 2] * DF[o + 3]
+        c2 = link[li, 2, 3] + link[li, 2, 0] * DF[o + 1] + link[li, 2, 1] * DF[o + 2] + \
+            link[li, 2, 2] * DF[o + 3]
+        for a in range(3):
+            for b in range(3):
+                s = 0.0
+                for u in range(3):
+                    t_ = 0.0
+                    for w in range(3):
+                        t_ += DF[o + 4 + 3 * u + w] * link[li, b, w]
+                    s += link[li, a, u] * t_
+                Ic[a, b] = s
+        w0, w1, w2 = Vl[li, 3], Vl[li, 4], Vl[li, 5]
+        # com velocity v + ω × c, its velocity-product acceleration a + α × c + ω × v_c
+        u0 = Vl[li, 0] + (w1 * c2 - w2 * c1)
+        u1 = Vl[li, 1] + (w2 * c0 - w0 * c2)
+        u2 = Vl[li, 2] + (w0 * c1 - w1 * c0)
+        al0, al1, al2 = acc[3], acc[4], acc[5]
+        a0 = acc[0] + (al1 * c2 - al2 * c1) + (w1 * u2 - w2 * u1)
+        a1 = acc[1] + (al2 * c0 - al0 * c2) + (w2 * u0 - w0 * u2)
+        a2 = acc[2] + (al0 * c1 - al1 * c0) + (w0 * u1 - w1 * u0)
+        # moment about the com: I_c α + ω × I_c ω
+        iw0 = Ic[0, 0] * w0 + Ic[0, 1] * w1 + Ic[0, 2] * w2
+        iw1 = Ic[1, 0] * w0 + Ic[1, 1] * w1 + Ic[1, 2] * w2
+        iw2 = Ic[2, 0] * w0 + Ic[2, 1] * w1 + Ic[2, 2] * w2
+        n0 = Ic[0, 0] * al0 + Ic[0, 1] * al1 + Ic[0, 2] * al2 + (w1 * iw2 - w2 * iw1)
+        n1 = Ic[1, 0] * al0 + Ic[1, 1] * al1 + Ic[1, 2] * al2 + (w2 * iw0 - w0 * iw2)
+        n2 = Ic[2, 0] * al0 + Ic[2, 1] * al1 + Ic[2, 2] * al2 + (w0 * iw1 - w1 * iw0)
+        # per input: J_v = Γ_v + Γ_ω × c (into G[:, :3]), J_ω = Γ_ω
+        for i in range(ni):
+            gw0, gw1, gw2 = G[i, 3], G[i, 4], G[i, 5]
+            G[i, 0] += gw1 * c2 - gw2 * c1
+            G[i, 1] += gw2 * c0 - gw0 * c2
+            G[i, 2] += gw0 * c1 - gw1 * c0
+        for i in range(ni):
+            gv0, gv1, gv2, gw0, gw1, gw2 = G[i, 0], G[i, 1], G[i, 2], G[i, 3], G[i, 4], G[i, 5]
+            for j in range(i + 1):
+                e = mass * (gv0 * G[j, 0] + gv1 * G[j, 1] + gv2 * G[j, 2])
+                for a in range(3):
+                    e += G[i, 3 + a] * (Ic[a, 0] * G[j, 3] + Ic[a, 1] * G[j, 4] +
+                                        Ic[a, 2] * G[j, 5])
+                M[i, j] += e
+            h[i] += mass * (gv0 * a0 + gv1 * a1 + gv2 * a2) + gw0 * n0 + gw1 * n1 + gw2 * n2
+            Q[i] += mass * (gv0 * g0 + gv1 * g1 + gv2 * g2)
+        vg -= mass * (c0 * g0 + c1 * g1 + c2 * g2)
+    for i in range(ni):
+        for j in range(i):
+            M[j, i] = M[i, j]
+    # springs and dampers on joint coordinates, through the first analogs
+    diss, vs = 0.0, 0.0
+    o_ec, o_eq, o_ek, o_ef = DI[D_ECOL], DI[D_EQC], DI[D_EKIND], DI[D_FELEM]
+    for e in range(DI[D_NE]):
+        col = DI[o_ec + e]
+        k = DF[o_ef + 2 * e]
+        if DI[o_ek + e] == SPRING:
+            dq = q[DI[o_eq + e]] - DF[o_ef + 2 * e + 1]
+            tau = -k * dq
+            vs += 0.5 * k * dq * dq
+        else:
+            tau = -k * qd[col]
+            diss -= tau * qd[col]
+        for i in range(ni):
+            Q[i] += first[col, i] * tau
+    en[0], en[1], en[2] = diss, vg, vs
+    return fast, bound
+
+
+
+# ---------------------------------------------------------------------- the entry kernel
+#: tasks of :func:`step`
+PREDICT, TRACK, RHS, TERMS = 0, 1, 2, 3
+
+# iopt: the solver's maxiter, the expected rank, Newton's task code, 0 (the solver's
+# ``have``), then the offsets of the fields of a member's block of ``buf`` and its size
+(I_MAXITER, I_RANK, I_NEWTON, I_HAVE, B_M, B_H, B_Q, B_FIRST, B_QD, B_EN, B_FIG, B_OUT,
+ B_MINV, B_COORD, B_SIZE, I_LEN) = range(16)
+
+#: the figures of a solved pose in its block: residual, iterations, condition number (NaN:
+#: at most the limit of ``fopts[8]``, not computed), converged, closed
+FIG_RES, FIG_ITS, FIG_COND, FIG_CONV, FIG_CLOSED = range(5)
+
+
+def layout(ni: int, nv: int, nq: int) -> dict:
+    """Offsets of the fields of a member's block of ``buf`` (:func:`step`) for ``ni`` inputs,
+    ``nv`` velocity and ``nq`` stored coordinates, and the block's ``size``: ``M`` (ni, ni),
+    ``h``, ``Q`` (ni), ``first`` (nv, ni), ``qd`` (nv), ``en`` (3: dampers' power, gravity
+    and spring energy), ``fig`` (5), ``out`` (2 ni + 2), ``Minv`` (ni, ni), ``q`` (nq)."""
+    sizes = (("M", ni * ni), ("h", ni), ("Q", ni), ("first", nv * ni), ("qd", nv), ("en", 3),
+             ("fig", 5), ("out", 2 * ni + 2), ("Minv", ni * ni), ("q", nq))
+    out, o = {}, 0
+    for name, k in sizes:
+        out[name] = o
+        o += k
+    out["size"] = o
+    return out
+
+
+def options(opts, rank: int, rhs_cond: float, ni: int, nv: int, nq: int):
+    """``(fopts, iopt)`` of :func:`step`: the solver's options (``_path_options``) and the
+    condition number above which forward dynamics takes the limit along the branch; the
+    solver's maxiter, the expected rank, Newton's task code and the block layout."""
+    from .solver import _path_options
+    lay = layout(ni, nv, nq)
+    iopt = np.zeros(I_LEN, dtype=np.int64)
+    iopt[I_MAXITER], iopt[I_RANK], iopt[I_NEWTON] = opts.maxiter, rank, _sk.NEWTON
+    for key, name in ((B_M, "M"), (B_H, "h"), (B_Q, "Q"), (B_FIRST, "first"), (B_QD, "qd"),
+                      (B_EN, "en"), (B_FIG, "fig"), (B_OUT, "out"), (B_MINV, "Minv"),
+                      (B_COORD, "q"), (B_SIZE, "size")):
+        iopt[key] = lay[name]
+    return np.r_[_path_options(opts, 0.0), rhs_cond], iopt
+
+
+@_njit
+def _exact_condition(PI, PF, S, ucols, rank, Ju, W):
+    """The condition number ``s_max / s_rank`` (truncated SVD) of the unknowns' Jacobian at
+    twists ``S``, as :meth:`closure.state.Plan.condition`."""
+    if Ju.shape[0] == 0 or Ju.shape[1] == 0:
+        return 1.0
+    _scaled_jacobian(PI, PF, S, ucols, Ju)
+    return _svd_parts(Ju, rank, W[4], W[5], W[6])[0]
+
+
+@_njit
+def _cholesky_inverse(M, Minv, L):
+    """``Minv = M⁻¹`` of a symmetric positive definite ``M`` (Cholesky); False when the
+    factorisation fails."""
+    n = M.shape[0]
+    for j in range(n):
+        d = M[j, j]
+        for t in range(j):
+            d -= L[j, t] * L[j, t]
+        if not d > 0.0:
+            return False
+        d = math.sqrt(d)
+        L[j, j] = d
+        for i in range(j + 1, n):
+            s = M[i, j]
+            for t in range(j):
+                s -= L[i, t] * L[j, t]
+            L[i, j] = s / d
+    for j in range(n):                           # columns of M⁻¹: L Lᵀ x = e_j
+        for i in range(n):
+            s = 1.0 if i == j else 0.0
+            for t in range(i):
+                s -= L[i, t] * Minv[t, j]
+            Minv[i, j] = s / L[i, i]
+        for i in range(n - 1, -1, -1):
+            s = Minv[i, j]
+            for t in range(i + 1, n):
+                s -= L[t, i] * Minv[t, j]
+            Minv[i, j] = s / L[i, i]
+    return True
+
+
+@_njit
+def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, cond, its,
+         flag, bq, brot, bx, tangent, y, buf):
+    """The compiled steps of the dynamics (module notes), by ``task``:
+
+    * ``PREDICT``: the tracker's base pose (``bq``, ``brot`` at inputs ``bx``) moved along
+      its ``tangent`` (nv, ni) to the inputs ``y[:ni]``, inputs set, into ``q[0]``,
+      ``rot[0]`` (the batch-of-one state the solver's Newton corrects next:
+      :func:`closure.solve_kernels.drive`, task ``NEWTON``).
+    * ``TRACK``: that corrected state (``q``, ``rot``, ``S`` and the solver's ``res``,
+      ``cond``, ``its``, ``flag``) judged: the block's ``fig`` gets its residual,
+      iterations, exact condition number (truncated SVD where the solver took the
+      Cholesky path), converged, closed (converged and residual at most ``fopts[1]``);
+      where it closed it becomes the base (``bq``, ``brot``, ``bx``).
+    * ``RHS``: as ``TRACK`` (the condition number computed only where the estimate
+      exceeds ``fopts[8]``), then the terms at the pose (:func:`_terms`, link poses
+      ``link``, twists ``S``) at rates ``y[ni:2 ni]``, the pose's coordinates into the
+      block's ``q``; on a regular pose the first analogs become the ``tangent``, and
+      ``out`` = (ẋ, M⁻¹ (Q − h), dampers' power, 0) with ``Minv``.
+    * ``TERMS``: :func:`_terms` for every pose ``q`` (B, nq), ``rot`` of a batch at rates
+      ``y`` (B·ni), member b's fields in block b of ``buf`` (``link``, ``S`` unused);
+      ``fig[FIG_COND]`` gets the condition estimate (or the condition).
+
+    ``fopts``, ``iopt``: :func:`options`.  Returns :data:`OK`, or for ``TRACK`` and ``RHS``
+    :data:`NOT_CLOSED` (the base kept), :data:`SINGULAR` (the pose's condition exceeds
+    ``fopts[8]``: the base moved, the tangent and the acceleration are the caller's),
+    :data:`NON_FINITE` (``Q − h`` not finite) or :data:`NOT_SPD` (no Cholesky factor of
+    ``M``) (the base and tangent moved, the terms written)."""
+    ni = icols.shape[0]
+    nv, nu = PI[H_NV], ucols.shape[0]
+    if task == PREDICT:
+        o_cs, o_inq = PI[F_COLSC], PI[O_INQ]
+        dv = np.zeros(nv)
+        for c in range(nv):
+            s = 0.0
+            for i in range(ni):
+                s += tangent[c, i] * (y[i] - bx[i])
+            dv[c] = s / PF[o_cs + c]
+        _apply(PI, PF, bq, brot, dv, q[0], rot[0], np.zeros((1, 3, 3)))
+        for i in range(ni):
+            q[0, PI[o_inq + i]] = y[i]
+        return OK
+    rank = iopt[I_RANK]
+    nq = q.shape[1]
+    blk = iopt[B_SIZE]
+    o_M, o_h, o_Q, o_f, o_qd, o_en, o_fig = iopt[B_M], iopt[B_H], iopt[B_Q], iopt[B_FIRST], \
+        iopt[B_QD], iopt[B_EN], iopt[B_FIG]
+    wk = _work(PI, ni, nu)
+    qdd = np.zeros(nv)
+    if task == TERMS:
+        nj, nl, nc = PI[H_NJ], PI[H_NL], PI[H_NC]
+        A_, link_, fa_ = np.zeros((nj, 4, 4)), np.zeros((nl, 4, 4)), np.zeros((nj, 4, 4))
+        r_, S_, T, w3 = np.zeros((nc, 6)), np.zeros((nv, 6)), np.zeros((3, 4, 4)), np.zeros(3)
+        for b in range(q.shape[0]):
+            o = b * blk
+            _evaluate_state(PI, PF, PM, q[b], rot[b], A_, link_, fa_, r_, S_, T, w3)
+            fast, bound = _terms(PI, PF, DI, DF, q[b], link_, S_, y[b * ni:(b + 1) * ni], rank,
+                                 ucols, icols, wk,
+                                 buf[o + o_f:o + o_f + nv * ni].reshape((nv, ni)),
+                                 buf[o + o_qd:o + o_qd + nv], qdd,
+                                 buf[o + o_M:o + o_M + ni * ni].reshape((ni, ni)),
+                                 buf[o + o_h:o + o_h + ni], buf[o + o_Q:o + o_Q + ni],
+                                 buf[o + o_en:o + o_en + 3])
+            buf[o + o_fig + FIG_COND] = bound
+        return OK
+    # TRACK and RHS: the solver's corrected state of one pose
+    conv = flag[0] != 0
+    closed = conv and res[0] <= fopts[1]
+    fig = buf[o_fig:o_fig + 5]
+    fig[FIG_RES], fig[FIG_ITS], fig[FIG_CONV] = res[0], its[0], 1.0 if conv else 0.0
+    fig[FIG_CLOSED] = 1.0 if closed else 0.0
+    c_ = cond[0]
+    if task == TRACK:
+        if c_ != c_:                            # the Cholesky path: the SVD's figure
+            c_ = _exact_condition(PI, PF, S[0], ucols, rank, wk[1], wk[0])
+        fig[FIG_COND] = c_
+        if not closed:
+            return NOT_CLOSED
+        _adopt(q, rot, bq, brot, bx, y)
+        return OK
+    first = buf[o_f:o_f + nv * ni].reshape((nv, ni))
+    qd = buf[o_qd:o_qd + nv]
+    M = buf[o_M:o_M + ni * ni].reshape((ni, ni))
+    h, Q, en = buf[o_h:o_h + ni], buf[o_Q:o_Q + ni], buf[o_en:o_en + 3]
+    xd = y[ni:2 * ni]
+    fast, bound = _terms(PI, PF, DI, DF, q[0], link[0], S[0], xd, rank, ucols, icols, wk, first,
+                         qd, qdd, M, h, Q, en)
+    c_ = np.nan
+    if not closed or not (fast and bound <= fopts[8]):
+        c_ = bound if not fast else _exact_condition(PI, PF, S[0], ucols, rank, wk[1], wk[0])
+    fig[FIG_COND] = c_
+    if not closed:
+        return NOT_CLOSED
+    _adopt(q, rot, bq, brot, bx, y)
+    o_q = iopt[B_COORD]
+    for i in range(nq):
+        buf[o_q + i] = q[0, i]
+    if c_ > fopts[8]:
+        return SINGULAR
+    for c in range(nv):
+        for i in range(ni):
+            tangent[c, i] = first[c, i]
+    o_out, o_mi = iopt[B_OUT], iopt[B_MINV]
+    out = buf[o_out:o_out + 2 * ni + 2]
+    finite = True
+    for i in range(ni):
+        out[i] = xd[i]
+        f = Q[i] - h[i]
+        out[ni + i] = f
+        if not (f - f == 0.0):
+            finite = False
+    out[2 * ni], out[2 * ni + 1] = en[0], 0.0
+    if not finite:
+        return NON_FINITE
+    Minv = buf[o_mi:o_mi + ni * ni].reshape((ni, ni))
+    if not _cholesky_inverse(M, Minv, np.zeros((ni, ni))):
+        return NOT_SPD
+    for i in range(ni):
+        s = 0.0
+        for j in range(ni):
+            s += Minv[i, j] * (Q[j] - h[j])
+        out[ni + i] = s
+    return OK
+
+
+@_njit
+def _adopt(q, rot, bq, brot, bx, y):
+    """The corrected pose ``q[0]``, ``rot[0]`` at inputs ``y[:ni]`` becomes the base."""
+    for i in range(bq.shape[0]):
+        bq[i] = q[0, i]
+    for s in range(brot.shape[0]):
+        for a in range(3):
+            for b in range(3):
+                brot[s, a, b] = rot[0, s, a, b]
+    for i in range(bx.shape[0]):
+        bx[i] = y[i]

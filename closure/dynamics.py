@@ -1024,7 +1024,7 @@ class ReducedDynamics:
 
     def _residual(self, q):
         ks = self.m.kinematic_state((q, np.zeros((q.shape[0], 0, 3, 3))), twists=False)
-        r = ks["r"]
+        r = ks.r
         if r.shape[1] == 0:
             return np.zeros(q.shape[0])
         return np.maximum(np.abs(r[..., :3]).max((1, 2)) / self.m.tree.scale,

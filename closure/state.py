@@ -47,8 +47,6 @@ class KinematicState:
     step : numpy.ndarray, shape (B,), or None
         Largest dimensionless Newton step the solver computed at these poses when it
         stopped there (NaN where it did not converge); None otherwise.
-
-    ``ks["link"]`` style access by field name is kept for older callers.
     """
 
     link: np.ndarray
@@ -60,17 +58,6 @@ class KinematicState:
     deps: tuple
     first: np.ndarray | None = None
     step: np.ndarray | None = None
-
-    # ---------------------------------------------------------- mapping compatibility
-    def __getitem__(self, key: str):
-        if key == "A":                  # the former per-joint list of (B, 4, 4) arrays
-            return [self.A[:, k] for k in range(self.A.shape[1])]
-        if key not in _FIELDS or (key == "S" and self.S is None):
-            raise KeyError(key)
-        return getattr(self, key)
-
-    def __contains__(self, key: str) -> bool:
-        return key in _FIELDS and getattr(self, key) is not None
 
     def __len__(self) -> int:
         return self.link.shape[0]
@@ -109,8 +96,6 @@ class KinematicState:
                                 for f in ("link", "frame_a", "A", "r")),
                               S, s0.carrier, s0.deps, first, step)
 
-
-_FIELDS = ("link", "frame_a", "A", "r", "S", "carrier", "deps", "first", "step")
 
 
 def _arr(a, dtype=float) -> np.ndarray:

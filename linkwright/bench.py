@@ -580,6 +580,7 @@ def _lazy(module: str, function: str) -> Callable[[bool], list[str]]:
 BENCHES = {"closure": bench_closure, "synthesis": bench_synthesis, "stiffness": bench_stiffness,
            "mechanism": bench_mechanism, "approx": bench_approx, "dynamics": bench_dynamics,
            "engine": _lazy("bench_closure_speed", "bench_closure_speed"),
+           "peers": _lazy("bench_peers", "bench_peers"),
            "links": _lazy("bench_links", "bench_links"),
            "families": _lazy("bench_families", "bench_families"),
            "complete": _lazy("bench_complete", "bench_complete"),

@@ -45,7 +45,7 @@ def engine_poses(kinds, F, q, h):
             for i in range(JOINT_KINDS[t]):
                 m.add_input(f"v{v}j{j}", i)
                 cols.append(q[:, v, j, i])
-    link = m.solve(np.stack(cols, 1), continuation=False).kinematics(twists=False)["link"]
+    link = m.solve(np.stack(cols, 1), continuation=False).kinematics(twists=False).link
     return link[:, [m.links.index(f"v{v}L{j}") for v in range(V) for j in range(k)]] \
         .reshape(P, V, k, 4, 4)
 

@@ -240,7 +240,7 @@ def test_five_ss_platform_is_driven_through_its_positions_by_a_body_coordinate()
     assert not a.order_defect and not a.branch_defect and not a.dead_point
     m, sweep = a.mechanism, a.sweep
     pose = m.solve(sweep["input:body_slide"].to_numpy())
-    body = pose.kinematics(twists=False)["link"][:, m.links.index("body")]
+    body = pose.kinematics(twists=False).link[:, m.links.index("body")]
     Bw = np.einsum("nij,kj->nki", body[:, :3, :3], B) + body[:, None, :3, 3]
     assert np.abs(np.linalg.norm(Bw - A, axis=2) - radii).max() < 1e-9
     # the same platform with position 1 in the middle of the task: the slide drive sweeps

@@ -42,7 +42,7 @@ def mechanism_links(chains, P):
         for j, i, x in drive:
             m.add_input(f"v{v}j{j}", i)
             cols.append(x)
-    link = m.solve(np.stack(cols, 1), continuation=False).kinematics(twists=False)["link"]
+    link = m.solve(np.stack(cols, 1), continuation=False).kinematics(twists=False).link
     return [link[:, [m.links.index(f"v{v}L{j}") for j in range(len(c[0]))]]
             for v, c in enumerate(chains)]
 

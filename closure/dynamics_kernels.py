@@ -55,7 +55,8 @@ import numpy as np
 from . import lstsq as _lstsq_module
 from . import solve_kernels as _sk
 from .solve_kernels import (_JIT, F_COLSC, F_ROWMAP, H_NC, H_NJ, H_NL, H_NV, O_INQ, _apply,
-                            _lsq, _lsq_solve, _lsq_work, _scaled_jacobian, _svd_parts)
+                            _cholesky, _lsq, _lsq_solve, _lsq_work, _scaled_jacobian,
+                            _svd_parts)
 from .solve_kernels import _evaluate as _evaluate_state
 
 __all__ = ["pack", "layout", "options", "step", "PREDICT", "TRACK", "RHS", "TERMS", "OK",
@@ -402,19 +403,8 @@ def _cholesky_inverse(M, Minv, L):
     """``Minv = M⁻¹`` of a symmetric positive definite ``M`` (Cholesky); False when the
     factorisation fails."""
     n = M.shape[0]
-    for j in range(n):
-        d = M[j, j]
-        for t in range(j):
-            d -= L[j, t] * L[j, t]
-        if not d > 0.0:
-            return False
-        d = math.sqrt(d)
-        L[j, j] = d
-        for i in range(j + 1, n):
-            s = M[i, j]
-            for t in range(j):
-                s -= L[i, t] * L[j, t]
-            L[i, j] = s / d
+    if not _cholesky(M, L, n):
+        return False
     for j in range(n):                           # columns of M⁻¹: L Lᵀ x = e_j
         for i in range(n):
             s = 1.0 if i == j else 0.0

@@ -550,6 +550,26 @@ def _distance(PI, PF, qa, rota, qb, rotb, out, R3, w3):
 
 # ---------------------------------------------------------------------- least squares
 @numba.njit(**_JIT)
+def _cholesky(G, L, k):
+    """The Cholesky factor ``L`` (lower triangle written) of ``G[:k, :k]`` (lower triangle
+    read); False when ``G`` is not positive definite."""
+    for j in range(k):
+        d = G[j, j]
+        for t in range(j):
+            d -= L[j, t] * L[j, t]
+        if not d > 0.0:
+            return False
+        d = math.sqrt(d)
+        L[j, j] = d
+        for i in range(j + 1, k):
+            s = G[i, j]
+            for t in range(j):
+                s -= L[i, t] * L[j, t]
+            L[i, j] = s / d
+    return True
+
+
+@numba.njit(**_JIT)
 def _factor(J, rank, G, L, Linv, Ginv):
     """Cholesky path of the minimum-norm solve of ``J`` (m, n) truncated to ``rank``:
     the Gram matrix ``G`` (``J Jᵀ`` wide, ``Jᵀ J`` tall) factored, ``Ginv = G⁻¹``.
@@ -580,19 +600,8 @@ def _factor(J, rank, G, L, Linv, Ginv):
     for i in range(k):
         for j in range(i):
             G[j, i] = G[i, j]
-    for j in range(k):                                  # G = L Lᵀ
-        d = G[j, j]
-        for t in range(j):
-            d -= L[j, t] * L[j, t]
-        if not d > 0.0:
-            return False, 0.0
-        d = math.sqrt(d)
-        L[j, j] = d
-        for i in range(j + 1, k):
-            s = G[i, j]
-            for t in range(j):
-                s -= L[i, t] * L[j, t]
-            L[i, j] = s / d
+    if not _cholesky(G, L, k):                          # G = L Lᵀ
+        return False, 0.0
     tr_inv = 0.0
     for j in range(k):                                  # L⁻¹, lower triangular
         Linv[j, j] = 1.0 / L[j, j]

@@ -388,7 +388,7 @@ def surrogate_dynamics(dynamics, *, ranges: dict, kind: str = "spline", size: in
 
     Returns
     -------
-    closure.dynamics.ReducedDynamics
+    closure.reduced.ReducedDynamics
         With ``.info["fits"]``: a DataFrame, one row per coordinate: ``coordinate,
         input, kind, size, fit_s, max_abs_F, max_abs_dF, max_abs_d2F`` (errors against
         the engine on 401 points of the range), and ``.info["fit_s"]``, the total time.

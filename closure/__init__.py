@@ -22,7 +22,8 @@ ReducedDynamics      the same model with each loop replaced by transfer function
 drive_tolerance      drive forces of mechanisms made with joint errors (closure.tolerance)
 """
 from .chains import open_chain_poses
-from .dynamics import Body, Dynamics, ReducedDynamics, pseudo_inertia
+from .dynamics import Body, Dynamics, pseudo_inertia
+from .reduced import ReducedDynamics
 from .errors import ClosureError, MechanismError
 from .frames import (ad, adjoint, cross, euler_zxz, exp_se3, exp_so3, frame_from_points, hat, inverse,
                      log_se3, log_so3, rot_x, rot_y, rot_z, rotation, skew, transform,

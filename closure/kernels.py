@@ -2,7 +2,7 @@
 
 :func:`newton_euler` forms, for each pose of a batch, the mass matrix, the velocity
 terms and the gravity forces of a tree of bodies from the world twists of its joint
-columns (:class:`closure.dynamics.ReducedDynamics`, module notes there): the carrier
+columns (:class:`closure.reduced.ReducedDynamics`, module notes there): the carrier
 twists and their velocity products, each body's twist, acceleration and input Jacobian
 taken into the body's frame, and ``M = Σ Gᵀ Λ G``, ``h = Σ Gᵀ (Λ a − ad(V)ᵀ Λ V)``,
 ``Q = Σ Gᵀ Λ g`` — the same sums, in the same order, as the numpy expressions they

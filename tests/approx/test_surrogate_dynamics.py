@@ -8,7 +8,7 @@ from scipy.interpolate import CubicSpline
 from approx import ApproxError, arm
 from approx.multiloop import LoopAnalogs, loop_inputs, surrogate_dynamics
 from closure import Dynamics, Mechanism, MechanismError, translation
-from closure.dynamics import ReducedDynamics
+from closure.reduced import ReducedDynamics
 from linkwright.examples import crane as cr
 
 CRANE_RANGES = {"stroke1": (-0.05, 0.3), "stroke2": (-0.05, 0.17)}

@@ -317,6 +317,13 @@ class Dynamics:
         return out
 
     # ------------------------------------------------------------ forward dynamics
+    def simulate_batch(self, t_span, x0, xd0, **options):
+        """B independent trajectories in one call (initial states ``x0, xd0`` (B, n)), each
+        with its own steps and error control: see
+        :func:`closure.batch_dynamics.simulate_batch` (the same arguments after this model)."""
+        from .batch_dynamics import simulate_batch
+        return simulate_batch(self, t_span, x0, xd0, **options)
+
     def simulate(self, t_span, x0, xd0, *, guess: Pose | None = None, t_eval=None,
                  drive: Callable | None = None, method: str = "DOP853", rtol: float = 1e-10,
                  atol: float = 1e-12, stop_at_dead_point: bool = True,

@@ -15,33 +15,16 @@ import pandas as pd
 
 from .dynamics import Dynamics, _inverse_arguments, _simulate_arguments
 from .errors import MechanismError
-from .frames import _cross, as_array, input_rates, skew
+from .frames import _cross, _inverse, as_array, input_rates, skew
+from .state import _SKEW_BASIS
 
 __all__ = ["ReducedDynamics"]
-
-
-def _rigid_inverse(T):
-    """Inverse of rigid transforms ``(..., 4, 4)``."""
-    out = np.zeros_like(T)
-    Rt = np.swapaxes(T[..., :3, :3], -1, -2)
-    out[..., :3, :3] = Rt
-    out[..., :3, 3] = -np.einsum("...ij,...j->...i", Rt, T[..., :3, 3])
-    out[..., 3, 3] = 1.0
-    return out
-
-
-#: the Levi-Civita symbol: [a]× = a @ _EPS reshaped to 3x3
-_EPS = np.zeros((3, 3, 3))
-_EPS[0, 2, 1], _EPS[0, 1, 2] = 1.0, -1.0
-_EPS[1, 0, 2], _EPS[1, 2, 0] = 1.0, -1.0
-_EPS[2, 1, 0], _EPS[2, 0, 1] = 1.0, -1.0
-_EPS = _EPS.reshape(3, 9)
 
 
 #: ad(V) = Σ_m V_m _AD3[m]: the Lie bracket [V, ·] of twists (v, ω)
 _AD3 = np.zeros((6, 6, 6))
 for _k in range(3):
-    _E = _EPS.reshape(3, 3, 3)[_k]
+    _E = _SKEW_BASIS.reshape(3, 3, 3)[_k]
     _AD3[3 + _k, :3, :3] = _AD3[3 + _k, 3:, 3:] = _E      # ω×
     _AD3[_k, :3, 3:] = _E                                 # v×
 del _k, _E
@@ -333,7 +316,7 @@ class ReducedDynamics:
             o = t.q_offset[j.index]
             A = j.matrix(q[:, o:o + j.nq])
             if not self._fwd[k]:
-                A = _rigid_inverse(A)
+                A = _inverse(A)
             rel[:, k] = self._left[k] @ A @ self._right[k]
         link = np.empty((B, len(t.links), 4, 4))
         link[:, 0] = _EYE4

@@ -19,6 +19,7 @@ import contextlib
 import json
 import math
 import sys
+import time
 import warnings
 from pathlib import Path
 
@@ -103,6 +104,15 @@ def _parser():
     e.add_argument("-o", "--out", help="copy the studies and example scripts into this new "
                                        "(or empty) folder")
     e.add_argument("--json", action="store_true")
+    c = sub.add_parser("compile", help="compile the numba kernels now, one process per group, "
+                       "so that later runs only load them",
+                       description="Compile linkwright's numba kernels (solver, synthesis, "
+                       "dynamics, stiffness, approx) and store them in numba's cache, each "
+                       "group in its own process. The first use in a new installation "
+                       "compiles anyway; this does it ahead of time and in parallel.")
+    c.add_argument("--processes", type=int, help="worker processes (default: one per CPU)")
+    c.add_argument("--quiet", action="store_true", help=QUIET_HELP)
+    c.add_argument("--json", action="store_true", help="print a JSON summary on stdout")
     b = sub.add_parser("bench", help="speed-against-error tables of all modules")
     b.add_argument("modules", nargs="*", help="closure, synthesis, stiffness, mechanism, approx, dynamics, engine, links, "
                    "families, complete, kernels, surrogate-dynamics (default: all)")
@@ -221,6 +231,23 @@ def _dispatch(args, state: dict) -> int:
             return 0
         elif args.command == "init":
             return _init(args)
+        elif args.command == "compile":
+            from .warmup import compile_kernels
+            t0 = time.perf_counter()
+            try:
+                table = compile_kernels(processes=args.processes)
+            except ValueError as e:
+                print(f"linkwright: error: --{e}", file=sys.stderr)
+                return 2
+            summary = {"seconds": time.perf_counter() - t0,
+                       "groups": {r.group: {"seconds": r.seconds,
+                                            "compile_seconds": r.compile_seconds}
+                                  for r in table.itertuples()}}
+            if not args.json and not args.quiet:
+                print("\n".join(f"{r.group:<10} {r.seconds:6.1f} s ({r.compile_seconds:.1f} s "
+                                "compiling)" for r in table.itertuples()))
+                print(f"linkwright compile: {summary['seconds']:.1f} s in all")
+                return 0
         else:
             return _bench(args, state)
     except (StudyError, OutputFolderError) as e:

@@ -349,6 +349,7 @@ def _evaluate(PI, PF, PM, q, rot, A, link, fa, r, S, T, w3):
     (nj, 4, 4), ``r`` (nc, 6) and ``S`` (nv, 6) overwritten
     (:meth:`closure.state.Plan.evaluate`); ``T`` (3, 4, 4) and ``w3`` (3,) scratch."""
     nj, nc = PI[H_NJ], PI[H_NC]
+    t0, t1, t2 = np.int64(0), np.int64(1), np.int64(2)  # T's slots, not literals (one compile)
     o_kind, o_qoff, o_sidx, o_pitch, o_um = PI[O_KIND], PI[O_QOFF], PI[O_SIDX], PI[F_PITCH], \
         PI[F_UMID]
     # joint matrices
@@ -392,16 +393,16 @@ def _evaluate(PI, PF, PM, q, rot, A, link, fa, r, S, T, w3):
     for k in range(PI[H_NL] - 1):
         j = PI[o_tj + k]
         if PI[o_tfwd + k]:
-            _rigid_mul(PM, m_tl + k, A, j, T, 0)
+            _rigid_mul(PM, m_tl + k, A, j, T, t0)
         else:
-            _rigid_inv(A, j, T, 1)
-            _rigid_mul(PM, m_tl + k, T, 1, T, 0)
+            _rigid_inv(A, j, T, t1)
+            _rigid_mul(PM, m_tl + k, T, t1, T, t0)
         li, pl = PI[o_tli + k], PI[o_tpl + k]
         if pl == 0:
-            _rigid_mul(T, 0, PM, m_tr + k, link, li)
+            _rigid_mul(T, t0, PM, m_tr + k, link, li)
         else:
-            _rigid_mul(T, 0, PM, m_tr + k, T, 1)
-            _rigid_mul(link, pl, T, 1, link, li)
+            _rigid_mul(T, t0, PM, m_tr + k, T, t1)
+            _rigid_mul(link, pl, T, t1, link, li)
     o_jla, m_fa = PI[O_JLA], PI[M_FA]
     for j in range(nj):
         la = PI[o_jla + j]
@@ -417,13 +418,13 @@ def _evaluate(PI, PF, PM, q, rot, A, link, fa, r, S, T, w3):
     c0, c1, c2 = PF[o_c], PF[o_c + 1], PF[o_c + 2]
     for k in range(nc):
         c = PI[o_cj + k]
-        _rigid_mul(fa, c, A, c, T, 0)
-        _rigid_mul(T, 0, PM, m_cf + k, T, 1)
-        _rigid_inv(link, PI[o_clb + k], T, 0)
-        _rigid_mul(T, 1, T, 0, T, 2)
+        _rigid_mul(fa, c, A, c, T, t0)
+        _rigid_mul(T, t0, PM, m_cf + k, T, t1)
+        _rigid_inv(link, PI[o_clb + k], T, t0)
+        _rigid_mul(T, t1, T, t0, T, t2)
         for a in range(3):
             T[2, a, 3] += (T[2, a, 0] * c0 + T[2, a, 1] * c1 + T[2, a, 2] * c2) - PF[o_c + a]
-        _loop_log(T, 2, r, k, w3)
+        _loop_log(T, t2, r, k, w3)
     _twists(PI, PF, q, fa, S)
 
 
@@ -509,7 +510,7 @@ def _apply(PI, PF, q, rot, dv, q_out, rot_out, R3):
         q_out[qi] = q[qi] + dv[v] * PF[o_cs + v]
     for k in range(PI[O_INV] - PI[O_SORD]):
         _exp_so3(dv[PI[o_sc + 3 * k]], dv[PI[o_sc + 3 * k + 1]], dv[PI[o_sc + 3 * k + 2]],
-                 R3, 0)
+                 R3, np.int64(0))
         si = PI[o_so + k]
         for a in range(3):
             for b in range(3):
@@ -524,6 +525,7 @@ def _distance(PI, PF, qa, rota, qb, rotb, out, R3, w3):
     ``R3`` (1, 3, 3) and ``w3`` (3,) scratch."""
     o_v, o_q, o_cs = PI[O_SCALV], PI[O_SCALQ], PI[F_COLSC]
     o_sc, o_so = PI[O_SCOLS], PI[O_SORD]
+    i0 = np.int64(0)                    # not a literal: one compile of the callees
     for c in range(out.shape[0]):
         out[c] = 0.0
     for i in range(PI[O_SCALQ] - PI[O_SCALV]):
@@ -535,9 +537,9 @@ def _distance(PI, PF, qa, rota, qb, rotb, out, R3, w3):
             for b in range(3):
                 R3[0, a, b] = rota[si, a, 0] * rotb[si, b, 0] + rota[si, a, 1] * rotb[si, b, 1] + \
                     rota[si, a, 2] * rotb[si, b, 2]
-        th, _, _ = _rot_log(R3, 0, w3)
+        th, _, _ = _rot_log(R3, i0, w3)
         if th < 0.0:
-            _log_so3(R3, 0, w3)
+            _log_so3(R3, i0, w3)
         for a in range(3):
             out[PI[o_sc + 3 * k + a]] = w3[a]
     big = 0.0

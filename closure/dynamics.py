@@ -203,13 +203,30 @@ class Dynamics:
         self.elements.append(_JointElement(c, qc, "force", func))
 
     # ------------------------------------------------------------ terms
+    def _model_key(self) -> tuple:
+        """What :func:`closure.dynamics_kernels.pack` reads of this model: gravity, every
+        body's link and mass properties, every element's coordinate, kind, coefficient and
+        free value (bodies, elements and gravity may change between calls)."""
+        return (np.asarray(self.gravity, float).tobytes(),
+                tuple((b.link, float(b.mass), np.asarray(b.com, float).tobytes(),
+                       np.asarray(b.inertia, float).tobytes()) for b in self.bodies),
+                tuple((e.column, e.qcolumn, e.kind,
+                       None if e.kind == "force" else float(e.value), float(e.free))
+                      for e in self.elements))
+
     def _packed(self):
         """The compiled kernels' view of this model (:func:`closure.dynamics_kernels.pack`):
-        ``(plan, DI, DF)``, packed afresh (bodies, elements and gravity may change between
-        calls)."""
+        ``(plan, DI, DF)``, packed once per model and compiled plan and packed again only
+        when the model changed (:meth:`_model_key`)."""
         from . import dynamics_kernels
         plan = self.m.plan
-        return plan, *dynamics_kernels.pack(self, plan)
+        key = self._model_key()
+        cached = self.__dict__.get("_pack_cache")
+        if cached is not None and cached[0] is plan and cached[1] == key:
+            return cached[2]
+        packed = (plan, *dynamics_kernels.pack(self, plan))
+        self._pack_cache = (plan, key, packed)
+        return packed
 
     def _evaluate(self, pose: Pose, xd, t=0.0):
         """M, h, Q (given joint forces included), the coordinate rates, first analogs, the

@@ -29,6 +29,12 @@ and given joint forces as ``M⁻¹ F``) and moves the tracker on; task ``TRACK``
 without the terms (the integrator's step poses).  What the kernel cannot settle it
 reports instead (a pose that does not close, a near-singular one, a non-finite force, a
 mass matrix without a Cholesky factor) and the caller takes the pose-by-pose path.
+Batched forward dynamics (:func:`closure.batch_dynamics.simulate_batch`: B trajectories
+in lockstep) runs the same three calls per stage for all its members at once: tasks
+``BATCH_PREDICT`` and ``BATCH_RHS`` loop over the members' ``PREDICT`` (with a
+second-order term along the member's last rates) and ``RHS`` around one Newton call for
+them all, and :func:`nearest_poses` keeps each member's solved pose nearest every output
+time.
 
 The mechanism's structure comes packed by :func:`closure.solve_kernels.pack`; the
 dynamics' own data by :func:`pack` here, into ``DI`` (int64: counts, offsets, each
@@ -55,11 +61,12 @@ import numpy as np
 from . import lstsq as _lstsq_module
 from . import solve_kernels as _sk
 from .solve_kernels import (_JIT, F_COLSC, F_ROWMAP, H_NC, H_NJ, H_NL, H_NV, O_INQ, _apply,
-                            _cholesky, _lsq, _lsq_solve, _lsq_work, _scaled_jacobian,
-                            _svd_parts)
+                            _borrowed, _cholesky, _lsq, _lsq_solve, _lsq_work,
+                            _scaled_jacobian, _svd_parts)
 from .solve_kernels import _evaluate as _evaluate_state
 
-__all__ = ["pack", "layout", "options", "step", "PREDICT", "TRACK", "RHS", "TERMS", "OK",
+__all__ = ["pack", "layout", "options", "step", "PREDICT", "TRACK", "RHS", "TERMS",
+           "BATCH_PREDICT", "BATCH_RHS", "nearest_poses", "OK",
            "NOT_CLOSED", "SINGULAR", "NON_FINITE", "NOT_SPD"]
 
 
@@ -139,13 +146,14 @@ def pack(dynamics, plan):
 @_njit
 def _work(PI, ni, nu):
     """Scratch of :func:`_terms` for a mechanism with ``ni`` inputs and ``nu`` unknowns:
-    ``(W, Ju, Jin, R, X, R1, X1, Vl, bias, G, acc, Ic)``."""
+    ``(W, Ju, Jin, R, X, R1, X1, Vl, bias, G, acc, Ic, L)`` (``L`` (ni, ni): the mass
+    matrix's Cholesky factor in :func:`_pose_rhs`)."""
     nv, nc, nl = PI[H_NV], PI[H_NC], PI[H_NL]
     m = 6 * nc
     return (_lsq_work(m, nu, ni), np.zeros((m, nu)), np.zeros((m, ni)),
             np.zeros((m, ni)), np.zeros((nu, ni)), np.zeros((m, 1)),
             np.zeros((nu, 1)), np.zeros((nl, 6)), np.zeros((nv, 6)), np.zeros((ni, 6)),
-            np.zeros(6), np.zeros((3, 3)))
+            np.zeros(6), np.zeros((3, 3)), np.zeros((ni, ni)))
 
 
 @_njit
@@ -160,7 +168,21 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
     Returns ``(fast, bound)``: ``fast`` the Cholesky path was taken, ``bound`` then the
     estimate ``sqrt(‖J‖²_F · tr G⁻¹)`` (at least the condition number), else the
     condition number of the truncated SVD."""
-    W, Ju, Jin, R, X, R1, X1, Vl, bias, G, acc, Ic = wk
+    # every array borrowed (:func:`closure.solve_kernels._borrowed`: no reference counts;
+    # the caller keeps them alive for the call)
+    W0, Ju, Jin, R, X, R1, X1, Vl, bias, G, acc, Ic, _ = wk
+    W = (_borrowed(W0[0]), _borrowed(W0[1]), _borrowed(W0[2]), _borrowed(W0[3]),
+         _borrowed(W0[4]), _borrowed(W0[5]), _borrowed(W0[6]), _borrowed(W0[7]),
+         _borrowed(W0[8]), _borrowed(W0[9]))
+    Ju, Jin, R, X, R1, X1 = _borrowed(Ju), _borrowed(Jin), _borrowed(R), _borrowed(X), \
+        _borrowed(R1), _borrowed(X1)
+    Vl, bias, G, acc, Ic = _borrowed(Vl), _borrowed(bias), _borrowed(G), _borrowed(acc), \
+        _borrowed(Ic)
+    PI, PF, DI, DF, q, link, S, xd = _borrowed(PI), _borrowed(PF), _borrowed(DI), \
+        _borrowed(DF), _borrowed(q), _borrowed(link), _borrowed(S), _borrowed(xd)
+    ucols, icols, first, qd, qdd = _borrowed(ucols), _borrowed(icols), _borrowed(first), \
+        _borrowed(qd), _borrowed(qdd)
+    M, h, Q, en = _borrowed(M), _borrowed(h), _borrowed(Q), _borrowed(en)
     nv, nc, nl = PI[H_NV], PI[H_NC], PI[H_NL]
     m = 6 * nc
     nu, ni = ucols.shape[0], icols.shape[0]
@@ -346,12 +368,12 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
 
 # ---------------------------------------------------------------------- the entry kernel
 #: tasks of :func:`step`
-PREDICT, TRACK, RHS, TERMS = 0, 1, 2, 3
+PREDICT, TRACK, RHS, TERMS, BATCH_PREDICT, BATCH_RHS = 0, 1, 2, 3, 4, 5
 
 # iopt: the solver's maxiter, the expected rank, Newton's task code, 0 (the solver's
 # ``have``), then the offsets of the fields of a member's block of ``buf`` and its size
 (I_MAXITER, I_RANK, I_NEWTON, I_HAVE, B_M, B_H, B_Q, B_FIRST, B_QD, B_EN, B_FIG, B_OUT,
- B_MINV, B_COORD, B_SIZE, I_LEN) = range(16)
+ B_MINV, B_COORD, B_CODE, B_QDD, B_SIZE, I_LEN) = range(18)
 
 #: the figures of a solved pose in its block: residual, iterations, condition number (NaN:
 #: at most the limit of ``fopts[8]``, not computed), converged, closed
@@ -362,9 +384,12 @@ def layout(ni: int, nv: int, nq: int) -> dict:
     """Offsets of the fields of a member's block of ``buf`` (:func:`step`) for ``ni`` inputs,
     ``nv`` velocity and ``nq`` stored coordinates, and the block's ``size``: ``M`` (ni, ni),
     ``h``, ``Q`` (ni), ``first`` (nv, ni), ``qd`` (nv), ``en`` (3: dampers' power, gravity
-    and spring energy), ``fig`` (5), ``out`` (2 ni + 2), ``Minv`` (ni, ni), ``q`` (nq)."""
+    and spring energy), ``fig`` (5), ``out`` (2 ni + 2), ``Minv`` (ni, ni), ``q`` (nq),
+    ``code`` (1: the pose's code of task ``RHS``), ``qdd`` (nv: the velocity-product
+    accelerations)."""
     sizes = (("M", ni * ni), ("h", ni), ("Q", ni), ("first", nv * ni), ("qd", nv), ("en", 3),
-             ("fig", 5), ("out", 2 * ni + 2), ("Minv", ni * ni), ("q", nq))
+             ("fig", 5), ("out", 2 * ni + 2), ("Minv", ni * ni), ("q", nq), ("code", 1),
+             ("qdd", nv))
     out, o = {}, 0
     for name, k in sizes:
         out[name] = o
@@ -383,7 +408,7 @@ def options(opts, rank: int, rhs_cond: float, ni: int, nv: int, nq: int):
     iopt[I_MAXITER], iopt[I_RANK], iopt[I_NEWTON] = opts.maxiter, rank, _sk.NEWTON
     for key, name in ((B_M, "M"), (B_H, "h"), (B_Q, "Q"), (B_FIRST, "first"), (B_QD, "qd"),
                       (B_EN, "en"), (B_FIG, "fig"), (B_OUT, "out"), (B_MINV, "Minv"),
-                      (B_COORD, "q"), (B_SIZE, "size")):
+                      (B_COORD, "q"), (B_CODE, "code"), (B_QDD, "qdd"), (B_SIZE, "size")):
         iopt[key] = lay[name]
     return np.r_[_path_options(opts, 0.0), rhs_cond], iopt
 
@@ -419,6 +444,49 @@ def _cholesky_inverse(M, Minv, L):
     return True
 
 
+@numba.njit(inline="always", **_JIT)
+def _predict(PI, PF, bq, brot, bx, tangent, y, q, rot, dv, R3, qdd, k):
+    """The base pose ``bq``, ``brot`` (at inputs ``bx`` (ni,)) moved along its ``tangent``
+    (nv, ni) to the inputs ``y[:ni]``, inputs set, into ``q`` (nq,) and ``rot`` (ns, 3, 3);
+    ``dv`` (nv,) and ``R3`` (1, 3, 3) scratch.  ``k`` not 0: plus the second-order term
+    ``k q̈_v`` (``qdd`` (nv,): :func:`_curvature`)."""
+    ni = bx.shape[0]
+    o_cs, o_inq = PI[F_COLSC], PI[O_INQ]
+    for c in range(PI[H_NV]):
+        s = 0.0
+        for i in range(ni):
+            s += tangent[c, i] * (y[i] - bx[i])
+        if k != 0.0:
+            s += k * qdd[c]
+        dv[c] = s / PF[o_cs + c]
+    _apply(PI, PF, bq, brot, dv, q, rot, R3)
+    for i in range(ni):
+        q[PI[o_inq + i]] = y[i]
+
+
+@numba.njit(inline="always", **_JIT)
+def _curvature(blk, iopt, bx, y):
+    """The factor ``k = ½ τ²`` of the predictor's second-order term ``k q̈_v`` from the
+    base's block ``blk`` (:func:`layout`: where its code is :data:`OK`, its rates ``ẋ``
+    (``out[:ni]``) and velocity-product accelerations ``q̈_v`` (``qdd``, the second analogs
+    contracted with ``ẋ``)) to the inputs ``y[:ni]`` from ``bx``: ``τ = Δx·ẋ / ẋ·ẋ``, exact
+    for one input and for a step along ``ẋ`` (the stages of a Runge–Kutta step), so the
+    predictor's error falls from O(Δx²) to O(Δx³) and Newton needs fewer iterations; 0
+    where the block has none (its code not OK, ``ẋ`` 0)."""
+    if blk[iopt[B_CODE]] != OK:
+        return 0.0
+    o_out = iopt[B_OUT]
+    dd, dx = 0.0, 0.0
+    for i in range(bx.shape[0]):
+        r = blk[o_out + i]
+        dd += r * r
+        dx += (y[i] - bx[i]) * r
+    if not (dd > 1e-100 and dd < 1e100):
+        return 0.0
+    tau = dx / dd
+    return 0.5 * tau * tau
+
+
 @_njit
 def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, cond, its,
          flag, bq, brot, bx, tangent, y, buf):
@@ -437,10 +505,22 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
       exceeds ``fopts[8]``), then the terms at the pose (:func:`_terms`, link poses
       ``link``, twists ``S``) at rates ``y[ni:2 ni]``, the pose's coordinates into the
       block's ``q``; on a regular pose the first analogs become the ``tangent``, and
-      ``out`` = (ẋ, M⁻¹ (Q − h), dampers' power, 0) with ``Minv``.
+      ``out`` = (ẋ, M⁻¹ (Q − h), dampers' power, 0) with ``Minv`` (:func:`_pose_rhs`).
     * ``TERMS``: :func:`_terms` for every pose ``q`` (B, nq), ``rot`` of a batch at rates
       ``y`` (B·ni), member b's fields in block b of ``buf`` (``link``, ``S`` unused);
       ``fig[FIG_COND]`` gets the condition estimate (or the condition).
+    * ``BATCH_PREDICT`` and ``BATCH_RHS``: ``PREDICT`` and ``RHS`` for every member b of a
+      batch of trajectories (batched forward dynamics,
+      :func:`closure.batch_dynamics.simulate_batch`), around one Newton call of the solver
+      for them all: member b's base pose, inputs and tangent are stacked in ``bq``
+      (B·nq), ``brot`` (B·ns, 3, 3), ``bx`` (B·ni) and ``tangent`` (B·nv, ni), its state
+      in ``y`` (B·(2 ni + 2)), its solver state in row b of ``q`` ... ``flag``, its fields
+      in block b of ``buf``; ``BATCH_RHS`` writes each member's code (as ``RHS``) into
+      its block's ``code`` and returns the number of members whose code is not
+      :data:`OK`.  Each member is treated on its own, by the same code as the single
+      trajectory (``PREDICT`` and ``RHS`` are these tasks for member 0 alone), except
+      that ``BATCH_PREDICT`` adds the second-order term along the member's last rates
+      from its block (:func:`_curvature`: fewer Newton iterations).
 
     ``fopts``, ``iopt``: :func:`options`.  Returns :data:`OK`, or for ``TRACK`` and ``RHS``
     :data:`NOT_CLOSED` (the base kept), :data:`SINGULAR` (the pose's condition exceeds
@@ -449,20 +529,19 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
     ``M``) (the base and tangent moved, the terms written)."""
     ni = icols.shape[0]
     nv, nu = PI[H_NV], ucols.shape[0]
-    if task == PREDICT:
-        o_cs, o_inq = PI[F_COLSC], PI[O_INQ]
-        dv = np.zeros(nv)
-        for c in range(nv):
-            s = 0.0
-            for i in range(ni):
-                s += tangent[c, i] * (y[i] - bx[i])
-            dv[c] = s / PF[o_cs + c]
-        _apply(PI, PF, bq, brot, dv, q[0], rot[0], np.zeros((1, 3, 3)))
-        for i in range(ni):
-            q[0, PI[o_inq + i]] = y[i]
+    nq, ns, m = q.shape[1], rot.shape[1], 2 * ni + 2
+    if task == PREDICT or task == BATCH_PREDICT:    # one pose: the batch-of-one member 0
+        dv, R3 = np.zeros(nv), np.zeros((1, 3, 3))
+        blk, o_qdd = iopt[B_SIZE], iopt[B_QDD]
+        for b in range(q.shape[0] if task == BATCH_PREDICT else 1):
+            o = b * blk
+            xb, yb = bx[b * ni:(b + 1) * ni], y[b * m:(b + 1) * m]
+            k = 0.0 if task == PREDICT else _curvature(buf[o:o + blk], iopt, xb, yb)
+            _predict(PI, PF, bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns], xb,
+                     tangent[b * nv:(b + 1) * nv], yb, q[b], rot[b], dv, R3,
+                     buf[o + o_qdd:o + o_qdd + nv], k)
         return OK
     rank = iopt[I_RANK]
-    nq = q.shape[1]
     blk = iopt[B_SIZE]
     o_M, o_h, o_Q, o_f, o_qd, o_en, o_fig = iopt[B_M], iopt[B_H], iopt[B_Q], iopt[B_FIRST], \
         iopt[B_QD], iopt[B_EN], iopt[B_FIG]
@@ -484,38 +563,86 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
                                  buf[o + o_en:o + o_en + 3])
             buf[o + o_fig + FIG_COND] = bound
         return OK
-    # TRACK and RHS: the solver's corrected state of one pose
+    if task == RHS or task == BATCH_RHS:            # one pose: the batch-of-one member 0
+        # the members' views borrowed (no reference counts): the arguments outlive them
+        q, rot, link, S, res, cond, its, flag = _borrowed(q), _borrowed(rot), \
+            _borrowed(link), _borrowed(S), _borrowed(res), _borrowed(cond), _borrowed(its), \
+            _borrowed(flag)
+        bq, brot, bx, tangent, y, buf = _borrowed(bq), _borrowed(brot), _borrowed(bx), \
+            _borrowed(tangent), _borrowed(y), _borrowed(buf)
+        o_code, n_bad, code = iopt[B_CODE], 0, OK
+        for b in range(q.shape[0] if task == BATCH_RHS else 1):
+            o = b * blk
+            code = _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q[b], rot[b], link[b],
+                             S[b], res[b], cond[b], its[b], flag[b], bq[b * nq:(b + 1) * nq],
+                             brot[b * ns:(b + 1) * ns], bx[b * ni:(b + 1) * ni],
+                             tangent[b * nv:(b + 1) * nv], y[b * m:(b + 1) * m],
+                             buf[o:o + blk], wk, qdd)
+            buf[o + o_code] = code
+            if code != OK:
+                n_bad += 1
+        return code if task == RHS else n_bad
+    # TRACK: the solver's corrected state of one pose, judged
     conv = flag[0] != 0
     closed = conv and res[0] <= fopts[1]
     fig = buf[o_fig:o_fig + 5]
     fig[FIG_RES], fig[FIG_ITS], fig[FIG_CONV] = res[0], its[0], 1.0 if conv else 0.0
     fig[FIG_CLOSED] = 1.0 if closed else 0.0
     c_ = cond[0]
-    if task == TRACK:
-        if c_ != c_:                            # the Cholesky path: the SVD's figure
-            c_ = _exact_condition(PI, PF, S[0], ucols, rank, wk[1], wk[0])
-        fig[FIG_COND] = c_
-        if not closed:
-            return NOT_CLOSED
-        _adopt(q, rot, bq, brot, bx, y)
-        return OK
+    if c_ != c_:                                # the Cholesky path: the SVD's figure
+        c_ = _exact_condition(PI, PF, S[0], ucols, rank, wk[1], wk[0])
+    fig[FIG_COND] = c_
+    if not closed:
+        return NOT_CLOSED
+    _adopt(q[0], rot[0], bq, brot, bx, y)
+    return OK
+
+
+@numba.njit(inline="always", **_JIT)
+def _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, cond, its, flag,
+              bq, brot, bx, tangent, y, buf, wk, qdd):
+    """Task ``RHS`` of :func:`step` for one corrected pose: its stored coordinates ``q``
+    (nq,), ``rot`` (ns, 3, 3), link poses ``link`` (nl, 4, 4), twists ``S`` (nv, 6) and the
+    solver's figures ``res``, ``cond``, ``its``, ``flag`` (scalars) judged into the
+    block ``buf`` (:func:`layout`), the terms there at rates ``y[ni:2 ni]``, the base
+    (``bq``, ``brot``, ``bx``) and ``tangent`` moved, ``out`` and ``Minv`` written; ``wk``
+    (:func:`_work`) and ``qdd`` (nv,) scratch.  Returns :func:`step`'s code."""
+    # borrowed (no reference counts on the views below): the caller keeps them alive
+    PI, PF, fopts, iopt, ucols, icols = _borrowed(PI), _borrowed(PF), _borrowed(fopts), \
+        _borrowed(iopt), _borrowed(ucols), _borrowed(icols)
+    q, rot, bq, brot, bx, tangent = _borrowed(q), _borrowed(rot), _borrowed(bq), \
+        _borrowed(brot), _borrowed(bx), _borrowed(tangent)
+    y, buf = _borrowed(y), _borrowed(buf)
+    ni = icols.shape[0]
+    nv, nq = PI[H_NV], q.shape[0]
+    rank = iopt[I_RANK]
+    o_f, o_qd, o_M, o_fig = iopt[B_FIRST], iopt[B_QD], iopt[B_M], iopt[B_FIG]
+    conv = flag != 0
+    closed = conv and res <= fopts[1]
+    fig = buf[o_fig:o_fig + 5]
+    fig[FIG_RES], fig[FIG_ITS], fig[FIG_CONV] = res, its, 1.0 if conv else 0.0
+    fig[FIG_CLOSED] = 1.0 if closed else 0.0
     first = buf[o_f:o_f + nv * ni].reshape((nv, ni))
     qd = buf[o_qd:o_qd + nv]
     M = buf[o_M:o_M + ni * ni].reshape((ni, ni))
+    o_h, o_Q, o_en = iopt[B_H], iopt[B_Q], iopt[B_EN]
     h, Q, en = buf[o_h:o_h + ni], buf[o_Q:o_Q + ni], buf[o_en:o_en + 3]
     xd = y[ni:2 * ni]
-    fast, bound = _terms(PI, PF, DI, DF, q[0], link[0], S[0], xd, rank, ucols, icols, wk, first,
-                         qd, qdd, M, h, Q, en)
+    fast, bound = _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qdd,
+                         M, h, Q, en)
+    o_qdd = iopt[B_QDD]
+    for c in range(nv):
+        buf[o_qdd + c] = qdd[c]
     c_ = np.nan
     if not closed or not (fast and bound <= fopts[8]):
-        c_ = bound if not fast else _exact_condition(PI, PF, S[0], ucols, rank, wk[1], wk[0])
+        c_ = bound if not fast else _exact_condition(PI, PF, S, ucols, rank, wk[1], wk[0])
     fig[FIG_COND] = c_
     if not closed:
         return NOT_CLOSED
     _adopt(q, rot, bq, brot, bx, y)
     o_q = iopt[B_COORD]
     for i in range(nq):
-        buf[o_q + i] = q[0, i]
+        buf[o_q + i] = q[i]
     if c_ > fopts[8]:
         return SINGULAR
     for c in range(nv):
@@ -534,7 +661,7 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
     if not finite:
         return NON_FINITE
     Minv = buf[o_mi:o_mi + ni * ni].reshape((ni, ni))
-    if not _cholesky_inverse(M, Minv, np.zeros((ni, ni))):
+    if not _cholesky_inverse(M, Minv, wk[12]):
         return NOT_SPD
     for i in range(ni):
         s = 0.0
@@ -546,12 +673,51 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
 
 @_njit
 def _adopt(q, rot, bq, brot, bx, y):
-    """The corrected pose ``q[0]``, ``rot[0]`` at inputs ``y[:ni]`` becomes the base."""
+    """The corrected pose ``q`` (nq,), ``rot`` (ns, 3, 3) at inputs ``y[:ni]`` becomes the
+    base."""
     for i in range(bq.shape[0]):
-        bq[i] = q[0, i]
+        bq[i] = q[i]
     for s in range(brot.shape[0]):
         for a in range(3):
             for b in range(3):
-                brot[s, a, b] = rot[0, s, a, b]
+                brot[s, a, b] = rot[s, a, b]
     for i in range(bx.shape[0]):
         bx[i] = y[i]
+
+
+@_njit
+def nearest_poses(T, t, members, bq, brot, bx, tangent, near, sq, srot, sx, stan):
+    """Keep, for each output time, the solved pose of each member nearest to it in time
+    (the bases of its poses there: :func:`closure.batch_dynamics.simulate_batch`).
+
+    Member ``a`` of a call (the batch's member ``g = members[a]``) was solved at the time
+    ``t[a]``: its base pose ``bq[g]`` (nq,), ``brot[g]`` (ns, 3, 3), inputs ``bx[g]`` and
+    ``tangent[g]`` (nv, ni) becomes the kept pose ``sq[g, k]``, ``srot[g, k]``, ``sx[g, k]``,
+    ``stan[g, k]`` of the output times ``T[k]`` either side of ``t[a]`` (``T`` ascending;
+    times of a backward run negated) where it is nearer than the one kept, ``near[g, k]``
+    (initially inf) its distance in time."""
+    N = T.shape[0]
+    for a in range(members.shape[0]):
+        g, ta = members[a], t[a]
+        lo, hi = 0, N                           # the first output time at or after ta
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if T[mid] < ta:
+                lo = mid + 1
+            else:
+                hi = mid
+        for k in range(max(lo - 1, 0), min(lo + 1, N)):
+            d = abs(ta - T[k])
+            if d < near[g, k]:
+                near[g, k] = d
+                for i in range(bq.shape[1]):
+                    sq[g, k, i] = bq[g, i]
+                for s_ in range(brot.shape[1]):
+                    for i in range(3):
+                        for j in range(3):
+                            srot[g, k, s_, i, j] = brot[g, s_, i, j]
+                for i in range(bx.shape[1]):
+                    sx[g, k, i] = bx[g, i]
+                for c in range(tangent.shape[1]):
+                    for i in range(tangent.shape[2]):
+                        stan[g, k, c, i] = tangent[g, c, i]

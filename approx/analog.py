@@ -296,6 +296,18 @@ class _Pieces:
             raise self._refuse(x.flat[bad])
         return out
 
+    def kernel_form(self) -> dict:
+        """This surrogate as the polynomial pieces a compiled model evaluates
+        (:func:`closure.reduced_kernels.pack_transfer`, used by
+        :class:`closure.reduced.ReducedDynamics`): ``pieces`` (origin (P,), coef (P, K),
+        inner (P − 1,), lo, inv_h: :class:`approx.kernels.Pieces`) on every x, and
+        ``accept``: the x it evaluates ([a, b], or every finite x when extrapolating).
+        The same numbers as :meth:`all`, which evaluates the same pieces by the same
+        piece search and Horner scheme."""
+        pcs = self._pieces()
+        return {"pieces": (pcs.origin, pcs.coef, pcs.inner, pcs.lo, pcs.inv_h),
+                "accept": self._range()}
+
     def position(self, x):
         """F(x), vectorised over ``x`` of any shape (a float for a float)."""
         return self._eval(x, 0)

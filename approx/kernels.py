@@ -11,43 +11,24 @@ and one over the output; a Python float takes the same kernel through a scalar e
 numba compiles the kernels on first use (``cache=True``: once per installation, then
 loaded from the cache; the first-call time is reported by ``linkwright bench approx``).
 The surrogates import this module when they are first evaluated, so ``import approx``
-does not import numba.
+does not import numba.  The piece search and Horner's scheme come from
+:mod:`closure.reduced_kernels`, where the reduced dynamics evaluate the same pieces.
 """
 from __future__ import annotations
 
 import numpy as np
 
-import numba
+from closure import reduced_kernels as _rk
+from closure.reduced_kernels import _horner, _piece
+
+#: the piece search and Horner's scheme are those of the reduced dynamics' kernel
+#: (:mod:`closure.reduced_kernels`), so a surrogate evaluates to the same numbers in
+#: both; their compiled code is in these kernels, whose cache index carries that
+#: file's stamp
+_njit = _rk.cached_njit(_rk, error_model="python")
 
 
-@numba.njit(cache=True, nogil=True)
-def _piece(v, lo, inv_h, inner, P):
-    """The piece of x = v: by one multiplication for equal pieces, else a binary search."""
-    if inv_h > 0.0:
-        s = (v - lo) * inv_h
-        if not s > 0.0:                          # also NaN: the first piece
-            return 0
-        if s >= P:
-            return P - 1
-        return int(s)
-    return np.searchsorted(inner, v, side="right")
-
-
-@numba.njit(cache=True, nogil=True)
-def _horner(c, i, t):
-    """F, F', F'' of piece i's polynomial (ascending coefficients ``c[i]``) at t."""
-    K = c.shape[1]
-    p = c[i, K - 1]
-    d = 0.0
-    dd = 0.0
-    for j in range(K - 2, -1, -1):
-        dd = dd * t + d
-        d = d * t + p
-        p = p * t + c[i, j]
-    return p, d, 2.0 * dd
-
-
-@numba.njit(cache=True, nogil=True)
+@_njit
 def _batch(x, lo, inv_h, inner, origin, coef, which, out, x_lo, x_hi):
     """F, F', F'' (``which`` < 0, out (3, n)) or one of them (out (1, n)) at x (n,).
     Returns the index of the first point that is not finite or not in [x_lo, x_hi]
@@ -72,7 +53,7 @@ def _batch(x, lo, inv_h, inner, origin, coef, which, out, x_lo, x_hi):
     return -1
 
 
-@numba.njit(cache=True, nogil=True)
+@_njit
 def _scalar(v, lo, inv_h, inner, origin, coef):
     """F, F', F'' at a float v."""
     i = _piece(v, lo, inv_h, inner, coef.shape[0])

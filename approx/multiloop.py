@@ -207,6 +207,11 @@ class ConstantTransfer:
     def acceleration(self, x):
         return self._like(x, 0.0)
 
+    def kernel_form(self) -> dict:
+        """One constant piece, for a compiled model
+        (:meth:`approx.analog._Pieces.kernel_form`)."""
+        return {"pieces": (np.zeros(1), np.full((1, 1), self.value), np.zeros(0), 0.0, 0.0)}
+
 
 def loop_inputs(mechanism, ranges, *, hold=None, samples: int = 9, rel_tol: float = 1e-8,
                 _loops=None):

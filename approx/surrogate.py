@@ -251,6 +251,17 @@ class ChebyshevAnalog(_Surrogate):
             return r[0], r[1], r[2]
         return _clenshaw(u, self.coef[:, which:which + 1])[0]
 
+    def kernel_form(self) -> dict:
+        """This surrogate for a compiled model (:meth:`approx.analog._Pieces.kernel_form`):
+        its Taylor pieces inside [a, b] (none for a degree no pieces reproduce), beyond it
+        the series ``coef`` (K, 3) in ``u = s x + o`` by Clenshaw's recurrence, as
+        :meth:`all` evaluates them."""
+        pcs = self._pieces()
+        return {"pieces": None if pcs is False else
+                (pcs.origin, pcs.coef, pcs.inner, pcs.lo, pcs.inv_h),
+                "inside": (self.a, self.b_end), "series": self.coef,
+                "series_map": (self._s, self._o), "accept": self._range()}
+
     @property
     def table(self) -> pd.DataFrame:
         """One row per Chebyshev coefficient: ``j, F, dF, d2F``."""

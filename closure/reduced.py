@@ -15,41 +15,13 @@ import pandas as pd
 
 from .dynamics import Dynamics, _inverse_arguments, _simulate_arguments
 from .errors import MechanismError
-from .frames import _cross, _inverse, as_array, input_rates, skew
-from .state import _SKEW_BASIS
+from .frames import _transform, as_array, input_rates, rot_y, skew
 
 __all__ = ["ReducedDynamics"]
 
 
-#: ad(V) = Σ_m V_m _AD3[m]: the Lie bracket [V, ·] of twists (v, ω)
-_AD3 = np.zeros((6, 6, 6))
-for _k in range(3):
-    _E = _SKEW_BASIS.reshape(3, 3, 3)[_k]
-    _AD3[3 + _k, :3, :3] = _AD3[3 + _k, 3:, 3:] = _E      # ω×
-    _AD3[_k, :3, 3:] = _E                                 # v×
-del _k, _E
-
-
-def _solve_small(M, F):
-    """M⁻¹ F for a symmetric positive definite M: closed forms for n ≤ 2 (numpy's solve
-    costs more than the arithmetic there), numpy's LU above; LinAlgError if singular."""
-    n = F.shape[0]
-    if n == 1:
-        m = float(M[0, 0])
-        if not m > 0:
-            raise np.linalg.LinAlgError("singular")
-        return F / m
-    if n == 2:
-        a, b, c, d = M.ravel().tolist()
-        det = a * d - b * c
-        if not abs(det) > 1e-14 * (abs(a * d) + abs(b * c)):
-            raise np.linalg.LinAlgError("singular")
-        f0, f1 = F.tolist()
-        return np.array([(d * f0 - b * f1) / det, (a * f1 - c * f0) / det])
-    return np.linalg.solve(M, F)
-
-
-_EYE4 = np.eye(4)
+#: the Hooke joint's middle rotation (Ry(π/2)), as the joints' matrices have it
+_U_MID = _transform(rot_y(np.pi / 2))
 
 
 class ReducedDynamics:
@@ -71,6 +43,12 @@ class ReducedDynamics:
     integrator); with the engine's exact analogs as the transfer functions it equals
     :class:`Dynamics` (the tests check both).
 
+    All of it is one compiled call for a batch of states
+    (:func:`closure.reduced_kernels.step`): the transfer functions given as polynomial
+    pieces, the tree's link poses and column twists, the Newton–Euler sums, springs
+    and dampers, and for forward dynamics ``M⁻¹ (Q − h + τ)``; Python evaluates only the
+    drive, given joint forces and transfer functions that are not polynomial pieces.
+
     Parameters
     ----------
     dynamics : Dynamics
@@ -84,7 +62,10 @@ class ReducedDynamics:
         ``position(x)``, ``velocity(x)``, ``acceleration(x)`` giving ``F, F', F''`` of
         that coordinate (rad or m) against the input (a float in, a float out, and
         arrays of shape (B,) in and out).  When it also has ``all(x)`` returning the
-        three at once, that is used instead.
+        three at once, that is used instead.  When it has ``kernel_form()`` returning
+        its polynomial pieces (:func:`closure.reduced_kernels.pack_transfer`: the
+        surrogates of :mod:`approx` and its constants do), the compiled kernel
+        evaluates it (read once, here) and calls none of its methods.
     ranges : mapping, optional
         ``{input label: (low, high)}``, where the transfer functions hold (m or rad).
         :meth:`inverse` then refuses motions outside and :meth:`simulate` stops where an
@@ -154,7 +135,6 @@ class ReducedDynamics:
             raise MechanismError(f"transfers: no transfer for coordinate(s) "
                                  f"{', '.join(missing)}; every non-input coordinate needs one")
         self._maps = maps
-        self._fast = all(mp[3] for mp in maps)     # every transfer has all(x)
         self._of_input = of_input
         self.transfers = {m[4]: (inputs[m[1]], m[2]) for m in maps}
         # ranges
@@ -172,115 +152,138 @@ class ReducedDynamics:
                     raise MechanismError(f"ranges[{key!r}]: expected (low, high) with finite "
                                          f"low < high, got {v!r}")
                 self.ranges[key] = (float(a[0]), float(a[1]))
-        # the spanning tree, compiled for one pass per call
+        # the spanning tree: per tree joint (in the tree's order) its link, its parent
+        # link and left · A(q) · right = Σ_m w_m C_m (closure.reduced_kernels.step):
+        # R, P, C, H joints C_0 + sin θ C_1 + (1 − cos θ) C_2 + s C_3 (s the slide, or θ
+        # for H with the pitch in C_3; backwards the sign in C_1 and C_3), U joints
+        # Rz(φ) mid Rz(θ) (transposed backwards) with Rz(α) = P + cos α (E − P) +
+        # sin α K1, P = e_z e_zᵀ: weights (1, cos φ, sin φ) ⊗ (1, cos θ, sin θ)
+        from .reduced_kernels import _JM, J_LIN, J_U, pack
         tj = [mech.joints[t.parent_joint[li]] for li in t.order[1:]]
-        self._order = [(li, t.link_index[j.link_a if t.forward[li] else j.link_b], k)
-                       for k, (li, j) in enumerate(zip(t.order[1:], tj))]
-        self._tj = tj
-        fwd = np.array([t.forward[li] for li in t.order[1:]])
-        self._fwd = fwd
-        self._left = np.array([j.frame_a if f else j.frame_b for j, f in zip(tj, fwd)])
-        self._right = np.array([j.frame_b_inv if f else j.frame_a_inv for j, f in zip(tj, fwd)])
-        # R and P joints: left · A(±q) · right = C0 + a C1 + b C2 with (a, b) =
-        # (±sin θ, 1 − cos θ) or (±s, 0): constant matrices, one product per call
         K1 = np.zeros((4, 4))
         K1[0, 1], K1[1, 0] = -1.0, 1.0
         K2 = K1 @ K1
         Ez = np.zeros((4, 4))
         Ez[2, 3] = 1.0
-        self._Rk = np.array([k for k, j in enumerate(tj) if j.kind == "R"], dtype=int)
-        self._Rq = np.array([t.q_offset[tj[k].index] for k in self._Rk], dtype=int)
-        self._Pk = np.array([k for k, j in enumerate(tj) if j.kind == "P"], dtype=int)
-        self._Pq = np.array([t.q_offset[tj[k].index] for k in self._Pk], dtype=int)
-        self._Ok = [k for k, j in enumerate(tj) if j.kind not in "RP"]
-        self._sgn = np.where(fwd, 1.0, -1.0)
-        C = np.zeros((len(tj), 3, 4, 4))
-        for k, j in enumerate(tj):
-            L, Rr = self._left[k], self._right[k]
-            C[k, 0] = L @ Rr
-            if j.kind == "R":
-                C[k, 1], C[k, 2] = L @ K1 @ Rr, L @ K2 @ Rr
-            elif j.kind == "P":
-                C[k, 1] = L @ Ez @ Rr
-        self._C0 = C[:, 0]
-        self._C12 = C[:, 1:].reshape(len(tj), 2, 16)
-        # tree columns: the coordinates that move links
+        Pz = np.diag([0.0, 0.0, 1.0])
+        rot_parts = (Pz, np.eye(3) - Pz, K1[:3, :3])       # Rz = Σ (1, cos, sin) · these
+        mid = _U_MID[:3, :3]
+        tree = []
+        for li, j in zip(t.order[1:], tj):
+            fwd = bool(t.forward[li])
+            L, Rr = (j.frame_a, j.frame_b_inv) if fwd else (j.frame_b, j.frame_a_inv)
+            sg = 1.0 if fwd else -1.0
+            o = t.q_offset[j.index]
+            C = np.zeros((_JM, 4, 4))
+            if j.kind == "U":
+                kind, qa, qb = J_U, o, o + 1
+                E33 = np.zeros((4, 4))
+                E33[3, 3] = 1.0
+                C[0] = L @ E33 @ Rr
+                for a_, A in enumerate(rot_parts):
+                    for b_, Bm in enumerate(rot_parts):
+                        R = A @ mid @ Bm
+                        T = np.zeros((4, 4))
+                        T[:3, :3] = R if fwd else R.T
+                        C[1 + 3 * a_ + b_] = L @ T @ Rr
+            else:
+                kind = J_LIN
+                qa = o if j.kind in "RCH" else -1
+                qb = {"P": o, "C": o + 1, "H": o}.get(j.kind, -1)
+                C[0] = L @ Rr
+                if qa >= 0:
+                    C[1], C[2] = sg * (L @ K1 @ Rr), L @ K2 @ Rr
+                if qb >= 0:
+                    C[3] = sg * (j.pitch if j.kind == "H" else 1.0) * (L @ Ez @ Rr)
+            parent = t.link_index[j.link_a if fwd else j.link_b]
+            tree.append((li, parent, kind, qa, qb, C))
+        # tree columns: the coordinates that move links, each with its twist in its
+        # carrier link's frame, Ad(frame_a) ξ; U's second column turns with φ about
+        # frame_a's z: Ad(frame_a · Rz(φ) mid) ξ, linear in (1, cos φ, sin φ)
         tc = np.nonzero(np.abs(t.path_sign).sum(0) > 0)[0]
-        self._tc = tc
-        xi, fa, carrier, deps, uprefix = [], [], [], [], []
+        columns, carrier, deps = [], [], []
         for j in mech.joints:
-            for k, (prefix, x, dep) in enumerate(j.columns(np.zeros((1, max(j.nq, 1))))):
+            for k, (prefix, xi, dep) in enumerate(j.columns(np.zeros((1, max(j.nq, 1))))):
                 c = t.v_offset[j.index] + k
                 if c not in tc:
                     continue
-                pos = int(np.nonzero(tc == c)[0][0])
-                xi.append(x)
-                fa.append(j.frame_a)
+                fa = j.frame_a
+                turns = (rot_parts if prefix is not None else (np.eye(3),))
+                u = np.zeros((3, 6))
+                for a_, A in enumerate(turns):
+                    R = fa[:3, :3] @ A @ (mid if prefix is not None else np.eye(3))
+                    sw = R @ xi[3:]
+                    u[a_] = np.r_[R @ xi[:3] + np.cross(fa[:3, 3], sw), sw]
+                uq = t.q_offset[j.index] if prefix is not None else -1
+                columns.append((c, t.link_index[j.link_a], uq, u.ravel()))
                 carrier.append(t.link_index[j.link_a])
                 deps.append([int(np.nonzero(tc == t.v_offset[j.index] + d)[0][0]) for d in dep])
-                if prefix is not None:
-                    uprefix.append((pos, j))
-        self._xi = np.array(xi).reshape(-1, 6)
-        # the column twists in their carrier link's frame: Ad(frame_a) ξ (U's second
-        # column moves with the first coordinate and is recomputed per call)
-        self._fa = fa_ = np.array(fa).reshape(-1, 4, 4)
-        sw = np.einsum("cij,cj->ci", fa_[:, :3, :3], self._xi[:, 3:])
-        sv = np.einsum("cij,cj->ci", fa_[:, :3, :3], self._xi[:, :3]) + np.cross(fa_[:, :3, 3], sw)
-        self._sv, self._sw = sv[..., None], sw[..., None]
-        self._carrier = np.array(carrier, dtype=int)
-        self._dep_ptr = np.cumsum([0] + [len(d) for d in deps]).astype(np.int64)
-        self._dep_idx = np.array([i for d in deps for i in d], dtype=np.int64)
-        self._uprefix = uprefix
+        carrier = np.array(carrier, dtype=int)
         li = [mech.links.index(b.link) for b in dynamics.bodies]
         self._bl = np.array(li, dtype=int)
         self._mass = np.array([b.mass for b in dynamics.bodies])
         self._com = np.array([b.com for b in dynamics.bodies]).reshape(-1, 3, 1)
-        self._Ib = np.array([b.inertia for b in dynamics.bodies]).reshape(-1, 3, 3)
+        Ib = np.array([b.inertia for b in dynamics.bodies]).reshape(-1, 3, 3)
         # 6x6 spatial inertias in the link frames, twists (v, ω) about the link origin:
         # [[m E, −m [c]×], [m [c]×, I_c − m [c]×[c]×]]
         Cx = np.array([skew(c) for c in self._com[..., 0]]).reshape(-1, 3, 3)
         m_ = self._mass[:, None, None]
-        self._Lb = np.zeros((len(li), 6, 6))
-        self._Lb[:, :3, :3] = m_ * np.eye(3)
-        self._Lb[:, :3, 3:] = -m_ * Cx
-        self._Lb[:, 3:, :3] = m_ * Cx
-        self._Lb[:, 3:, 3:] = self._Ib - m_ * (Cx @ Cx)
-        self._gkey = None
-        self._Pb = t.path_sign[li][:, tc]
-        self._Pc = t.path_sign[self._carrier][:, tc]
-        self._E = np.eye(ni)[of_input[tc]]                 # (ntc, ni) one-hot
+        Lb = np.zeros((len(li), 6, 6))
+        Lb[:, :3, :3] = m_ * np.eye(3)
+        Lb[:, :3, 3:] = -m_ * Cx
+        Lb[:, 3:, :3] = m_ * Cx
+        Lb[:, 3:, 3:] = Ib - m_ * (Cx @ Cx)
+        bodies = (self._bl, t.path_sign[carrier][:, tc], t.path_sign[li][:, tc], Lb,
+                  np.cumsum([0] + [len(d) for d in deps]), [i for d in deps for i in d])
         lin = [e for e in dynamics.elements if e.kind in ("spring", "damper")]
-        self._lin_cols = np.array([e.column for e in lin], dtype=int)
-        self._lin_k = np.array([e.value if e.kind == "spring" else 0.0 for e in lin])
-        self._lin_free = np.array([e.free if e.kind == "spring" else 0.0 for e in lin])
-        self._lin_c = np.array([e.value if e.kind == "damper" else 0.0 for e in lin])
-        self._lin_nc = -self._lin_c
-        self._lin_E = np.eye(ni)[of_input[self._lin_cols]].reshape(len(lin), ni)
+        lin_vals = np.array([(e.value, e.free, 0.0, 0.0) if e.kind == "spring" else
+                             (0.0, 0.0, e.value, -e.value) for e in lin]).reshape(-1, 4)
         self._springs = [e for e in lin if e.kind == "spring"]
         self._forces = [e for e in dynamics.elements if e.kind == "force"]
+        # transfers given as polynomial pieces are evaluated by the kernel, the others
+        # (e.g. exact analogs) by their own methods before each call
+        packed, self._pymaps = [], []
+        for mp in maps:
+            form_of = getattr(mp[2], "kernel_form", None)
+            form = form_of() if callable(form_of) else None
+            if form is None:
+                self._pymaps.append(mp)
+            else:
+                packed.append((mp[0], mp[1], form))
+        self._PI, self._PF = pack(tree, columns, inp, of_input, nv, len(t.links), bodies,
+                                  ([e.column for e in lin], lin_vals), packed)
         self.info: dict = {}
 
-    # ------------------------------------------------------------ kinematics
-    def _coordinates(self, x):
-        """q, F', F'' of every coordinate (B, nv) at inputs x (B, ni)."""
-        B = x.shape[0]
-        nv = self._nv
-        out = np.zeros((3, B, nv))
-        out[0][:, self._inp] = x
-        out[1][:, self._inp] = 1.0
-        if B == 1 and self._fast:                # one pose: scalar calls, no array traffic
-            xs = x[0].tolist()
-            q0, q1, q2 = out[0, 0], out[1, 0], out[2, 0]
-            try:
-                for c, i, obj, has_all, key in self._maps:
-                    q0[c], q1[c], q2[c] = obj.all(xs[i])
-            except (ValueError, TypeError):
-                pass                             # the general path names the culprit
-            else:
-                if np.isfinite(out.sum()):
-                    return out[0], out[1], out[2]
-        one = B == 1
-        for c, i, obj, has_all, key in self._maps:
+    # ------------------------------------------------------------ kinematics and terms
+    def _work(self, B: int) -> tuple:
+        """A zeroed work array of the kernel for B states (:func:`reduced_kernels.layout`)
+        and its views: ``x, xd, tau`` (B, n), ``g6`` (6,) (set to (g, 0)), ``q, d1, d2,
+        qd, acc`` (B, nv), ``link`` (B, nlinks, 4, 4), ``S`` (B, c, 6), ``M`` (B, n, n),
+        ``h, Q`` (B, n), ``diss`` (B,), ``out`` (B, 2n + 2)."""
+        from types import SimpleNamespace
+
+        from . import reduced_kernels as rk
+        o = rk.layout(B, self._PI)
+        W = np.zeros(o[-1])
+        n, nv = self._ni, self._nv
+        shapes = {"x": (B, n), "xd": (B, n), "tau": (B, n), "g6": (6,), "q": (B, nv),
+                  "d1": (B, nv), "d2": (B, nv), "qd": (B, nv), "acc": (B, nv),
+                  "link": (B, len(self.m.tree.links), 4, 4),
+                  "S": (B, int(self._PI[rk.H_NC]), 6), "M": (B, n, n), "h": (B, n),
+                  "Q": (B, n), "diss": (B,), "out": (B, 2 * n + 2)}
+        views = SimpleNamespace(**{k: W[o[i]:o[i + 1]].reshape(s)
+                                   for i, (k, s) in enumerate(shapes.items())})
+        views.g6[:3] = self.dynamics.gravity
+        return W, views
+
+    def _python_transfers(self, x: np.ndarray, q: np.ndarray, d1: np.ndarray, d2: np.ndarray,
+                          maps: list) -> None:
+        """q, F', F'' (B, nv) columns of the transfers ``maps`` by their own methods at
+        inputs x (B, ni); MechanismError naming the transfer that cannot be evaluated or
+        returns a non-finite value."""
+        one = x.shape[0] == 1
+        cols = []
+        for c, i, obj, has_all, key in maps:
             xi = float(x[0, i]) if one else x[:, i]
             try:
                 r = obj.all(xi) if has_all else (obj.position(xi), obj.velocity(xi),
@@ -289,113 +292,65 @@ class ReducedDynamics:
                 raise MechanismError(f"transfers[{key!r}]: cannot be evaluated at "
                                      f"{self._inputs[i]} = {x[:, i].min():.6g} … "
                                      f"{x[:, i].max():.6g}: {e}") from None
-            if one:
-                out[:, 0, c] = r
-            else:
-                out[:, :, c] = r
-        if not np.isfinite(out.sum()):
-            bad = ~np.isfinite(out).all((0, 1))
+            q[:, c], d1[:, c], d2[:, c] = r
+            cols.append(c)
+        if cols and not np.isfinite(q[:, cols].sum() + d1[:, cols].sum() + d2[:, cols].sum()):
+            bad = ~(np.isfinite(q) & np.isfinite(d1) & np.isfinite(d2)).all(0)
             key = self._labels[int(np.argmax(bad))]
             raise MechanismError(f"transfers[{key!r}]: returned a non-finite value")
-        return out[0], out[1], out[2]
 
-    def _links(self, q):
-        """World poses of every link (B, nlinks, 4, 4) from the coordinates by the tree."""
-        B = q.shape[0]
-        t = self.m.tree
-        ab = np.zeros((B, len(self._tj), 2))
-        if self._Rk.size:
-            th = q[:, self._Rq]
-            ab[:, self._Rk, 0] = np.sin(th) * self._sgn[self._Rk]
-            ab[:, self._Rk, 1] = 1.0 - np.cos(th)
-        if self._Pk.size:
-            ab[:, self._Pk, 0] = q[:, self._Pq] * self._sgn[self._Pk]
-        rel = (ab[:, :, None, :] @ self._C12)[:, :, 0].reshape(B, -1, 4, 4) + self._C0
-        for k in self._Ok:                        # C, H, U joints: the general product
-            j = self._tj[k]
-            o = t.q_offset[j.index]
-            A = j.matrix(q[:, o:o + j.nq])
-            if not self._fwd[k]:
-                A = _inverse(A)
-            rel[:, k] = self._left[k] @ A @ self._right[k]
-        link = np.empty((B, len(t.links), 4, 4))
-        link[:, 0] = _EYE4
-        if B == 1:                                # one pose: 2-D products into place
-            r, out = rel[0], link[0]
-            for li, parent, k in self._order:
-                np.dot(out[parent], r[k], out=out[li])
-            return link
-        for li, parent, k in self._order:
-            np.matmul(link[:, parent], rel[:, k], out=link[:, li])
-        return link
+    def _transfer_failed(self, x: np.ndarray):
+        """The error for inputs x (B, ni) at which the kernel's transfers failed: every
+        transfer evaluated by its own methods names the culprit."""
+        z = np.zeros((x.shape[0], self._nv))
+        self._python_transfers(x, z, z.copy(), z.copy(), self._maps)
+        raise MechanismError(f"transfers: cannot be evaluated at inputs {x.tolist()}")
 
-    def _g6(self, gravity):
-        """(g, 0) as a 6-vector, kept while ``gravity`` is unchanged."""
-        if self._gkey is None or not np.array_equal(self._gkey, gravity):
-            self._gkey = np.array(gravity, float)
-            self._gvec = np.r_[self._gkey, 0.0, 0.0, 0.0]
-        return self._gvec
+    def _run(self, task: int, x: np.ndarray, xd: np.ndarray, t=0.0) -> tuple:
+        """The kernel's ``task`` on inputs x, rates xd (B, ni): the views of its work
+        array (:meth:`_work`) and the given joint forces' power (B,) (task TERMS adds
+        their forces to Q)."""
+        from . import reduced_kernels as rk
+        B = x.shape[0]
+        W, v = self._work(B)
+        v.x[:], v.xd[:] = x, xd
+        if self._pymaps:
+            self._python_transfers(x, v.q, v.d1, v.d2, self._pymaps)
+        if rk.step(task, B, W, self._PI, self._PF) != rk.OK:
+            self._transfer_failed(x)
+        work = np.zeros(B)
+        if task == rk.TERMS:
+            self._add_forces(t, v, v.Q, work)
+        return v, work
 
-    def _twists(self, link, q):
-        """World unit twists (B, ntc, 6) of the tree columns."""
-        Lc = link[:, self._carrier]
-        R, p = Lc[..., :3, :3], Lc[..., :3, 3]
-        S = np.empty(Lc.shape[:2] + (6,))
-        S[..., 3:] = w = (R @ self._sw)[..., 0]
-        S[..., :3] = (R @ self._sv)[..., 0] + _cross(p, w)
-        t = self.m.tree
-        for pos, j in self._uprefix:
-            o = t.q_offset[j.index]
-            F = Lc[:, pos] @ self._fa[pos] @ j.columns(q[:, o:o + j.nq])[1][0]
-            w = F[:, :3, :3] @ self._xi[pos, 3:]
-            S[:, pos, 3:] = w
-            S[:, pos, :3] = F[:, :3, :3] @ self._xi[pos, :3] + _cross(F[:, :3, 3], w)
-        return S
+    def _add_forces(self, t, v, Q: np.ndarray, work: np.ndarray) -> None:
+        """The given joint forces at time t on the coordinates of ``v`` (:meth:`_work`),
+        added to the generalised forces Q (B, ni) and their power to ``work`` (B,)."""
+        B = Q.shape[0]
+        for e in self._forces:
+            qc, rate = v.q[:, e.qcolumn], v.qd[:, e.column]
+            tau = np.broadcast_to(np.asarray(e.value(t, qc, rate), float), (B,))
+            Q[:, self._of_input[e.column]] += v.d1[:, e.column] * tau
+            work += tau * rate
 
-    def _evaluate(self, x, xd, t=0.0, powers=False):
-        """M, h, Q (and the element powers) at inputs x, rates xd (B, ni).
+    def _coordinates(self, x: np.ndarray) -> tuple:
+        """q, F', F'' of every coordinate (B, nv) at inputs x (B, ni)."""
+        from .reduced_kernels import COORDS
+        v, _ = self._run(COORDS, x, np.zeros_like(x))
+        return v.q, v.d1, v.d2
+
+    def _evaluate(self, x: np.ndarray, xd: np.ndarray, t=0.0) -> tuple:
+        """M, h, Q, q, q̇, link poses, the dampers' and the given forces' power at inputs
+        x, rates xd (B, ni), by the compiled kernel (:mod:`closure.reduced_kernels`).
 
         The link twists are ``V = G ẋ`` (columns G per input) and their accelerations
         ``G ẍ + a`` (a: the velocity-product part); taken into each body's frame by
         ``Ad(L⁻¹)``, where its 6x6 spatial inertia Λ_b is constant,
         ``M = Σ G_bᵀ Λ_b G_b``, ``h = Σ G_bᵀ (Λ_b a_b − ad(V_b)ᵀ Λ_b V_b)`` and gravity
         ``Q = Σ G_bᵀ Λ_b (Rᵀ g, 0)`` (Newton–Euler, i.e. Lagrange's equations)."""
-        dyn = self.dynamics
-        B, n = x.shape
-        q, d1, d2 = self._coordinates(x)
-        xr = xd[:, self._of_input]                       # rate of each coordinate's input
-        qd = d1 * xr
-        M = np.zeros((B, n, n))
-        h = np.zeros((B, n))
-        Q = np.zeros((B, n))
-        link = None
-        if self._bl.size:
-            from .kernels import newton_euler
-            link = self._links(q)
-            S = self._twists(link, q)                                   # (B, c, 6)
-            acc = d2 * xr * xr
-            Qg = np.empty((B, n))
-            newton_euler(S, qd, d1, acc, self._tc, self._Pc, self._dep_ptr, self._dep_idx,
-                         self._Pb, self._E, self._bl, link, self._Lb, self._g6(dyn.gravity),
-                         _AD3, M, h, Qg)
-            Q += Qg
-        diss, work = np.zeros(B), np.zeros(B)
-        if self._lin_cols.size:                  # springs and dampers, all at once
-            cols = self._lin_cols
-            rate = qd[:, cols]
-            tau = rate * self._lin_nc                               # −c q̇ (dampers)
-            if self._springs:
-                tau -= self._lin_k * (q[:, cols] - self._lin_free)
-            Q += (d1[:, cols] * tau) @ self._lin_E
-            if powers:
-                diss += (rate * rate) @ self._lin_c
-        for e in self._forces:
-            qc, rate = q[:, e.qcolumn], qd[:, e.column]
-            tau = np.broadcast_to(np.asarray(e.value(t, qc, rate), float), (B,))
-            Q[:, self._of_input[e.column]] += d1[:, e.column] * tau
-            if powers:
-                work += tau * rate
-        return M, h, Q, q, qd, link, diss, work
+        from .reduced_kernels import TERMS
+        v, work = self._run(TERMS, x, xd, t)
+        return v.M, v.h, v.Q, v.q, v.qd, v.link, v.diss, work
 
     # ------------------------------------------------------------ public terms
     def _x(self, x, name):
@@ -496,6 +451,48 @@ class ReducedDynamics:
         return out
 
     # ------------------------------------------------------------ forward dynamics
+    def _rhs(self, drive: Callable | None) -> Callable:
+        """The integrator's right-hand side ``rhs(t, y) -> dy/dt`` (2n + 2,): y holds the
+        inputs x (m or rad), their rates ẋ, the dissipated energy and the work of the
+        drive and the given joint forces (J); dy/dt is ``(ẋ, ẍ, dissipated power, drive
+        and force power)``, ẍ = M⁻¹ (Q − h + τ) with τ = ``drive(t, x, ẋ)`` (n,).
+
+        One compiled call per right-hand side (:func:`closure.reduced_kernels.step`): the
+        transfers, the terms, the solve and the powers, on one work array; Python only for
+        the drive, the given joint forces and transfers that are not polynomial pieces."""
+        from . import reduced_kernels as rk
+        n = self._ni
+        W, v = self._work(1)
+        PI, PF, step, RHS, COORDS, OK = self._PI, self._PF, rk.step, rk.RHS, rk.COORDS, rk.OK
+        xx, tau, out = W[:2 * n], v.tau[0], v.out[0]       # x, ẋ adjacent in W
+        pymaps, forces = self._pymaps, self._forces
+
+        def rhs(t, y):
+            xx[:] = y[:2 * n]
+            if pymaps:
+                self._python_transfers(v.x, v.q, v.d1, v.d2, pymaps)
+            if drive is not None:
+                tau[:] = np.asarray(drive(t, y[:n], y[n:2 * n]), float).reshape(n)
+            if forces:
+                if drive is None:
+                    tau[:] = 0.0
+                if step(COORDS, 1, W, PI, PF) != OK:
+                    self._transfer_failed(v.x)
+                self._add_forces(t, v, v.tau, np.zeros(1))
+            code = step(RHS, 1, W, PI, PF)
+            if code != OK:
+                if code == rk.TRANSFER:
+                    self._transfer_failed(v.x)
+                if code == rk.NON_FINITE:
+                    raise MechanismError(f"simulate: non-finite generalised force at t = "
+                                         f"{t:.6g} (drive or joint-force functions returned "
+                                         "NaN or inf)")
+                raise MechanismError(f"simulate: the reduced mass matrix is singular at t = "
+                                     f"{t:.6g}, x = {y[:n].tolist()} (an input moves no mass: "
+                                     "a transfer function's slope vanishes there)")
+            return out.copy()
+        return rhs
+
     def simulate(self, t_span, x0, xd0, *, t_eval=None, drive: Callable | None = None,
                  method: str = "DOP853", rtol: float = 1e-10, atol: float = 1e-12,
                  **ivp_kw) -> pd.DataFrame:
@@ -533,28 +530,7 @@ class ReducedDynamics:
                 raise MechanismError(f"simulate: t_eval must lie within t_span [{t0}, {t1}]")
         self._check_range(x0[None], "simulate: x0")
 
-        def rhs(t, y):
-            x, xd = y[:n], y[n:2 * n]
-            M, h, Q, _, _, _, diss, work = self._evaluate(x[None], xd[None], t, powers=True)
-            F = Q[0] - h[0]
-            dw = work[0]
-            if drive is not None:
-                tau = np.asarray(drive(t, x, xd), float).reshape(n)
-                F = F + tau
-                dw += float(tau @ xd)
-            if not np.all(np.isfinite(F)):
-                raise MechanismError(f"simulate: non-finite generalised force at t = {t:.6g} "
-                                     f"(drive or joint-force functions returned NaN or inf)")
-            out = np.empty(2 * n + 2)
-            try:
-                out[:n], out[n:2 * n] = xd, _solve_small(M[0], F)
-            except np.linalg.LinAlgError:
-                raise MechanismError(f"simulate: the reduced mass matrix is singular at t = "
-                                     f"{t:.6g}, x = {x.tolist()} (an input moves no mass: a "
-                                     "transfer function's slope vanishes there)") from None
-            out[2 * n], out[2 * n + 1] = diss[0], dw
-            return out
-
+        rhs = self._rhs(drive)
         events = []
         for k, (lo, hi) in self.ranges.items():
             i = self._inputs.index(k)
@@ -572,18 +548,20 @@ class ReducedDynamics:
         e0 = en["total"][-1]
         q = en.pop("q")[:-1]
         en = {k: v[:-1] for k, v in en.items()}
-        out = pd.DataFrame({"t": sol.t})
+        # the frame at once (pandas inserts a column at a time slowly)
+        cols = {"t": sol.t}
         for k, lab in enumerate(self._inputs):
-            out[lab] = X[:, k]
-            out[f"rate:{lab}"] = XD[:, k]
-        out = pd.concat([out, pd.DataFrame(q, columns=[f"q:{c}" for c in self._labels])], axis=1)
-        out["kinetic"] = en["kinetic"]
-        out["potential"] = en["gravity"] + en["spring"]
-        out["energy"] = en["total"]
-        out["dissipated"] = sol.y[2 * n]
-        out["work"] = sol.y[2 * n + 1]
-        out["balance"] = out.energy + out.dissipated - out.work - e0
-        out["residual"] = self._residual(q) if len(q) else np.zeros(0)
+            cols[lab] = X[:, k]
+            cols[f"rate:{lab}"] = XD[:, k]
+        cols.update((f"q:{c}", q[:, k]) for k, c in enumerate(self._labels))
+        cols["kinetic"] = en["kinetic"]
+        cols["potential"] = en["gravity"] + en["spring"]
+        cols["energy"] = en["total"]
+        cols["dissipated"] = sol.y[2 * n]
+        cols["work"] = sol.y[2 * n + 1]
+        cols["balance"] = cols["energy"] + cols["dissipated"] - cols["work"] - e0
+        cols["residual"] = self._residual(q) if len(q) else np.zeros(0)
+        out = pd.DataFrame(cols)
         out.attrs["status"] = "completed" if sol.status == 0 else "left range"
         out.attrs["message"] = (sol.message if sol.status == 0 else
                                 f"an input reached an end of its range at t = {sol.t_events}")

@@ -1,4 +1,5 @@
-"""Compiled kernels of the engine (numba): the Newton–Euler sums of the reduced dynamics.
+"""The previous compiled Newton–Euler kernel of the reduced dynamics, kept as the
+tests' reference for :mod:`closure.reduced_kernels`.
 
 :func:`newton_euler` forms, for each pose of a batch, the mass matrix, the velocity
 terms and the gravity forces of a tree of bodies from the world twists of its joint

@@ -9,15 +9,25 @@ here, compiled, one small system after another:
   direction, the HS link's nine for an elevation and three helical angles), each with
   its linear unknowns (the axes' points, the sphere centre) projected out;
 * the misfit on a grid of directions (HH) or of (elevation, angles) (HS), and the HS
-  grid's local minima;
-* one Levenberg–Marquardt for any of the residuals (Jacobian by forward differences for
-  HH, exact for HS), its residual's call chain inlined;
+  grid's local minima as starting points (:func:`hs_starts`, every circle of a task in
+  one call);
+* one Levenberg–Marquardt, compiled once per residual (Jacobian by forward differences
+  for HH, exact for HS, from the residual's own factorisation), its residual's call
+  chain inlined;
 * the HS equations of many converged starts, for their least-squares points.
+
+The HS search does, operation for operation, what it did as numpy-driven kernels one
+circle at a time (the same grid values, minima, iterates and roots, bit for bit), at
+about half the time: the grid's 5x5 factorisations side by side in SIMD lanes
+(:func:`_misfit_lanes`), the residual's factorisation reused by its Jacobian, the
+Jacobian's four columns built side by side, one padded grid reused for every circle,
+and no Python between the steps of a circle.
 
 Inlining (numba's ``inline="always"``) pays where a small function runs in a tight loop
 (the HH equations in the grid: 2× faster), but every inlined call site is a copy to
 compile: the Levenberg–Marquardt calls each residual from two places only, and calls
-the HH equations rather than inlining them (first compile ~21 s, measured).
+the HH equations rather than inlining them (first compile of the HH and HS searches
+~35 s, measured).
 
 numba compiles them on first use (``cache=True``: once per installation, then loaded
 from the cache); :mod:`synthesis.helical` and :mod:`synthesis.spherical` import this
@@ -177,47 +187,13 @@ def _solve(M, v, x):
 
 
 @_kernel
-def _off_range(A, b, out, Q):
-    """``P b − b``, P the orthogonal projector on the columns of A (m, n): minus the part
-    of b (m,) off A's range, by modified Gram–Schmidt on [A b] (backward stable for the
-    least-squares residual, Björck & Paige 1992); Q (n, m) scratch."""
-    m, n = A.shape
-    for j in range(n):
-        for i in range(m):
-            Q[j, i] = A[i, j]
-    for i in range(m):
-        out[i] = b[i]
-    for j in range(n):
-        for k in range(j):
-            d = 0.0
-            for i in range(m):
-                d += Q[k, i] * Q[j, i]
-            for i in range(m):
-                Q[j, i] -= d * Q[k, i]
-        s = 0.0
-        for i in range(m):
-            s += Q[j, i] * Q[j, i]
-        nrm = math.sqrt(s)
-        if nrm == 0.0:
-            continue
-        for i in range(m):
-            Q[j, i] /= nrm
-        d = 0.0
-        for i in range(m):
-            d += Q[j, i] * out[i]
-        for i in range(m):
-            out[i] -= d * Q[j, i]
-    for i in range(m):
-        out[i] = -out[i]
-
-
-@_kernel
 def _scratch():
     """Scratch arrays of the residuals, allocated once per search (an allocation, or a
     tuple of arrays passed down, costs more than a residual; so they are passed one by
     one): vectors V (16, 3), 3x3 matrices Ms (3, 3, 3), the HH equations A6 (6, 4), rhs6
-    (6,) and their normal equations M (4, 4), b, x (4,); the HS equations A9 (9, 5), rhs9
-    (9,) and Gram–Schmidt Q (5, 9)."""
+    (6,) and their normal equations M (4, 4), b, x (4,); the HS equations' A9 (9, 5) (for
+    :func:`hs_systems`' layout; the search builds it transposed in Q), rhs9 (9,) and
+    Gram–Schmidt Q (5, 9)."""
     return (np.zeros((16, 3)), np.zeros((3, 3, 3)), np.zeros((6, 4)), np.zeros(6),
             np.zeros((4, 4)), np.zeros(4), np.zeros(4), np.zeros((9, 5)), np.zeros(9),
             np.zeros((5, 9)))
@@ -390,45 +366,38 @@ def hs_systems(g, th, R, t, p):
 
 
 @_inline
-def _hs_residual(z, a, b, R, t, p, f, V, Ms, A, rhs, Q):
-    """The nine HS equations' residual f (9,) off the range of their matrix at
-    z = (β, θ₂, θ₃, θ₄), the axis direction g = cos β a + sin β b; R (3, 3, 3), t (3, 3)
-    (scratch as :func:`_scratch`)."""
-    g = V[2]
-    cb, sb = math.cos(z[0]), math.sin(z[0])
-    for i in range(3):
-        g[i] = cb * a[i] + sb * b[i]
-    for j in range(3):
-        _hs_rows(g, z[1 + j], R[j], t[j], p, A[3 * j:3 * j + 3], rhs[3 * j:3 * j + 3], V,
-                 Ms[0])
-    _off_range(A, rhs, f, Q)
-
-
-@_kernel
-def _hs_jacobian(z, a, b, R, t, p, f, J, V, Ms, A, rhs, Q, W):
-    """Jacobian J (9, 4) of the HS residual f (9,) at z (:func:`_hs_residual`), exact
-    (Golub & Pereyra 1973): with A = Qᵀ U (Gram–Schmidt), x = A⁺ rhs, column k is
-    ``(I − QᵀQ)(∂A_k x − ∂rhs_k) − Qᵀ U⁻ᵀ ∂A_kᵀ f``.  Position j's rows
-    ``[R_j − G_j | (G_j − I) e1 | (G_j − I) e2]`` change with θ_j and β through G_j only
-    (the residual depends on A's column space, which e1, e2 ⊥ g do not change), so
-    ``∂A_j x = D (c − C)`` with D = ∂G_j (C the centre, c the axis point).  False where A
-    is rank deficient (scratch as :func:`_scratch`, W (9, 9))."""
-    g, gp, dv, u, e1, e2 = V[2], V[3], V[4], V[5], V[6], V[7]
-    G = Ms[0]
-    U, x, y, w, uu = W[0:5, 0:5], W[5, 0:5], W[6, 0:5], W[7, 0:5], W[8]
+def _hs_eval(z, a, b, R, t, p, f, V, Ms, rhs, Q, W):
+    """The nine HS equations at z = (β, θ₂, θ₃, θ₄), the axis direction g = cos β a + sin β b
+    (R (3, 3, 3), t (3, 3), pitch p), and their residual off the range of their matrix A
+    (9, 5): fills rhs (9,) and Aᵀ (as :func:`_hs_rows`) into Q (5, 9), then its modified
+    Gram–Schmidt factorisation A = Qᵀ U (Q in place, U = W[:5, :5]), and the residual
+    f (9,) = P rhs − rhs (P the projector on A's columns, projected column by column:
+    backward stable, Björck & Paige 1992; a zero column skipped); keeps g, dg/dβ, e1, e2,
+    cos θ_j, sin θ_j in V[0:6] and the rotations G_j in Ms for :func:`_hs_jac`.  Returns
+    (|f|², inf where not finite; whether A has full rank, i.e. the Jacobian exists)."""
+    g, gp, e1, e2, cs, sn = V[0], V[1], V[2], V[3], V[4], V[5]
+    U = W[0:5, 0:5]
     cb, sb = math.cos(z[0]), math.sin(z[0])
     for i in range(3):
         g[i] = cb * a[i] + sb * b[i]
         gp[i] = -sb * a[i] + cb * b[i]                                  # dg/dβ
+    _perp3(g, e1, e2)
     for j in range(3):
-        _hs_rows(g, z[1 + j], R[j], t[j], p, A[3 * j:3 * j + 3], rhs[3 * j:3 * j + 3], V,
-                 Ms[0])
-    for i in range(3):
-        e1[i], e2[i] = V[0, i], V[1, i]
-    n = 5
-    for j in range(n):                               # modified Gram–Schmidt, A = Qᵀ U
-        for i in range(9):
-            Q[j, i] = A[i, j]
+        th = z[1 + j]
+        c, s = math.cos(th), math.sin(th)
+        cs[j], sn[j] = c, s
+        G = Ms[j]
+        _rot3cs(g, c, s, G)
+        for i in range(3):
+            r = 3 * j + i
+            for k in range(3):
+                Q[k, r] = R[j, i, k] - G[i, k]
+            Q[3, r] = G[i, 0] * e1[0] + G[i, 1] * e1[1] + G[i, 2] * e1[2] - e1[i]
+            Q[4, r] = G[i, 0] * e2[0] + G[i, 1] * e2[1] + G[i, 2] * e2[2] - e2[i]
+            rhs[r] = p * th * g[i] - t[j, i]
+            f[r] = rhs[r]
+    full = True
+    for j in range(5):                  # modified Gram–Schmidt on Q's rows, in place
         for k in range(j):
             d = 0.0
             for i in range(9):
@@ -441,70 +410,128 @@ def _hs_jacobian(z, a, b, R, t, p, f, J, V, Ms, A, rhs, Q, W):
             d += Q[j, i] * Q[j, i]
         d = math.sqrt(d)
         if not d > 0.0:
-            return False
+            full = False
+            if d == 0.0:
+                continue                            # a zero column: nothing to project
         U[j, j] = d
-        for k in range(j + 1, n):
+        for k in range(j + 1, 5):
             U[k, j] = 0.0
         for i in range(9):
             Q[j, i] /= d
-    for k in range(n):                               # x = U⁻¹ Q rhs
+        d = 0.0
+        for i in range(9):
+            d += Q[j, i] * f[i]
+        for i in range(9):
+            f[i] -= d * Q[j, i]
+    cost = 0.0
+    for i in range(9):
+        f[i] = -f[i]
+        cost += f[i] * f[i]
+    return (cost if math.isfinite(cost) else np.inf), full
+
+
+@_inline
+def _hs_jac(z, p, f, J, V, Ms, rhs, Q, W, X):
+    """Jacobian J (9, 4) of the HS residual f (9,) at the point z of the last
+    :func:`_hs_eval` (its factorisation of full rank), exact (Golub & Pereyra 1973): with
+    x = A⁺ rhs = U⁻¹ Q rhs, column k is ``(I − QᵀQ)(∂A_k x − ∂rhs_k) − Qᵀ U⁻ᵀ ∂A_kᵀ f``.
+    Position j's rows ``[R_j − G_j | (G_j − I) e1 | (G_j − I) e2]`` change with θ_j and β
+    through G_j only (the residual depends on A's column space, which e1, e2 ⊥ g do not
+    change), so ``∂A_j x = D (c − C)`` with D = ∂G_j (C the centre, c the axis point):
+    ``D = ∂G_j/∂β`` (:func:`_dg_times`; Dᵀ is D at −θ_j) for column 0, ``D = [g]× G_j`` for
+    column 1 + j.  The four columns are built side by side (X (4, 9, 4) scratch: ∂A x −
+    ∂rhs, ∂Aᵀ f, U⁻ᵀ ∂Aᵀ f, Q (∂A x − ∂rhs) + U⁻ᵀ ∂Aᵀ f, a column each)."""
+    g, gp, e1, e2, cs, sn = V[0], V[1], V[2], V[3], V[4], V[5]
+    dv = V[6]
+    U, x, y = W[0:5, 0:5], W[5, 0:5], W[6, 0:5]
+    uu, w, yy, qu = X[0], X[1], X[2], X[3]
+    for k in range(5):                               # x = U⁻¹ Q rhs
         d = 0.0
         for i in range(9):
             d += Q[k, i] * rhs[i]
         y[k] = d
-    for k in range(n - 1, -1, -1):
+    for k in range(4, -1, -1):
         d = y[k]
-        for m in range(k + 1, n):
+        for m in range(k + 1, 5):
             d -= U[k, m] * x[m]
         x[k] = d / U[k, k]
-    for i in range(3):
-        u[i] = x[3] * e1[i] + x[4] * e2[i] - x[i]                    # c − C
-    for col in range(4):
-        for m in range(n):
-            w[m] = 0.0
-        for j in range(3):
-            th = z[1 + j]
-            if col > 0 and col != 1 + j:
-                for i in range(3):
-                    uu[3 * j + i] = 0.0
-                continue
-            if col == 0:                                              # D = ∂G_j/∂β
-                sn, cs = math.sin(th), math.cos(th)
-                _dg_times(g, gp, sn, 1.0 - cs, u, dv)
-                for i in range(3):
-                    uu[3 * j + i] = dv[i] - p * th * gp[i]
-                _dg_times(g, gp, -sn, 1.0 - cs, f[3 * j:3 * j + 3], dv)   # Dᵀ = D at −θ
-            else:                                                      # D = [g]× G_j
-                _rot3(g, th, G)
-                for i in range(3):                                    # G_j (c − C)
-                    dv[i] = G[i, 0] * u[0] + G[i, 1] * u[1] + G[i, 2] * u[2]
-                _cross3(g, dv, Ms[1, 0])
-                for i in range(3):
-                    uu[3 * j + i] = Ms[1, 0, i] - p * g[i]
-                fj = f[3 * j:3 * j + 3]
-                _cross3(fj, g, Ms[1, 1])                               # Dᵀ f = G_jᵀ (f × g)
-                for i in range(3):
-                    dv[i] = G[0, i] * Ms[1, 1, 0] + G[1, i] * Ms[1, 1, 1] + G[2, i] * Ms[1, 1, 2]
-            for i in range(3):                                        # ∂A_jᵀ f_j
-                w[i] -= dv[i]
-            w[3] += e1[0] * dv[0] + e1[1] * dv[1] + e1[2] * dv[2]
-            w[4] += e2[0] * dv[0] + e2[1] * dv[1] + e2[2] * dv[2]
-        for k in range(n):                                            # y = U⁻ᵀ w
-            d = w[k]
+    u0 = x[3] * e1[0] + x[4] * e2[0] - x[0]                         # c − C
+    u1 = x[3] * e1[1] + x[4] * e2[1] - x[1]
+    u2 = x[3] * e1[2] + x[4] * e2[2] - x[2]
+    for m in range(5):
+        for c in range(4):
+            w[m, c] = 0.0
+    for i in range(9):
+        for c in range(1, 4):
+            uu[i, c] = 0.0
+    for j in range(3):
+        th = z[1 + j]
+        fj = f[3 * j:3 * j + 3]
+        omc = 1.0 - cs[j]                                             # column 0
+        dv[0], dv[1], dv[2] = u0, u1, u2
+        _dg_times(g, gp, sn[j], omc, dv, dv)
+        for i in range(3):
+            uu[3 * j + i, 0] = dv[i] - p * th * gp[i]
+        _dg_times(g, gp, -sn[j], omc, fj, dv)
+        w[0, 0] -= dv[0]
+        w[1, 0] -= dv[1]
+        w[2, 0] -= dv[2]
+        w[3, 0] += e1[0] * dv[0] + e1[1] * dv[1] + e1[2] * dv[2]
+        w[4, 0] += e2[0] * dv[0] + e2[1] * dv[1] + e2[2] * dv[2]
+        G, c = Ms[j], 1 + j                                           # column 1 + j
+        d0 = G[0, 0] * u0 + G[0, 1] * u1 + G[0, 2] * u2               # G_j (c − C)
+        d1 = G[1, 0] * u0 + G[1, 1] * u1 + G[1, 2] * u2
+        d2 = G[2, 0] * u0 + G[2, 1] * u1 + G[2, 2] * u2
+        uu[3 * j, c] = (g[1] * d2 - g[2] * d1) - p * g[0]
+        uu[3 * j + 1, c] = (g[2] * d0 - g[0] * d2) - p * g[1]
+        uu[3 * j + 2, c] = (g[0] * d1 - g[1] * d0) - p * g[2]
+        t0 = fj[1] * g[2] - fj[2] * g[1]                              # Dᵀ f = G_jᵀ (f × g)
+        t1 = fj[2] * g[0] - fj[0] * g[2]
+        t2 = fj[0] * g[1] - fj[1] * g[0]
+        d0 = G[0, 0] * t0 + G[1, 0] * t1 + G[2, 0] * t2
+        d1 = G[0, 1] * t0 + G[1, 1] * t1 + G[2, 1] * t2
+        d2 = G[0, 2] * t0 + G[1, 2] * t1 + G[2, 2] * t2
+        w[0, c] -= d0
+        w[1, c] -= d1
+        w[2, c] -= d2
+        w[3, c] += e1[0] * d0 + e1[1] * d1 + e1[2] * d2
+        w[4, c] += e2[0] * d0 + e2[1] * d1 + e2[2] * d2
+    for k in range(5):                                                # U⁻ᵀ ∂Aᵀ f
+        for c in range(4):
+            d = w[k, c]
             for m in range(k):
-                d -= U[m, k] * y[m]
-            y[k] = d / U[k, k]
-        for k in range(n):                                            # Q uu, then project
+                d -= U[m, k] * yy[m, c]
+            yy[k, c] = d / U[k, k]
+    for k in range(5):
+        for c in range(4):
             d = 0.0
             for i in range(9):
-                d += Q[k, i] * uu[i]
-            w[k] = d
-        for i in range(9):
-            d = uu[i]
-            for k in range(n):
-                d -= Q[k, i] * (w[k] + y[k])
-            J[i, col] = d
-    return True
+                d += Q[k, i] * uu[i, c]
+            qu[k, c] = d + yy[k, c]
+    for i in range(9):                                                # project
+        for c in range(4):
+            d = uu[i, c]
+            for k in range(5):
+                d -= Q[k, i] * qu[k, c]
+            J[i, c] = d
+
+
+@_kernel
+def _hs_residual(z, a, b, R, t, p, f, V, Ms, A, rhs, Q):
+    """The HS residual f (9,) at z (:func:`_hs_jacobian`, its Jacobian dropped; scratch as
+    :func:`_scratch`)."""
+    _hs_jacobian(z, a, b, R, t, p, f, np.empty((9, 4)), V, Ms, A, rhs, Q, np.empty((9, 9)))
+
+
+@_kernel
+def _hs_jacobian(z, a, b, R, t, p, f, J, V, Ms, A, rhs, Q, W):
+    """The HS residual f (9,) and its exact Jacobian J (9, 4) at z (:func:`_hs_eval`,
+    :func:`_hs_jac`); False (J not filled) where the equations' matrix is rank deficient
+    (scratch as :func:`_scratch`, W (9, 9); A not used)."""
+    _, full = _hs_eval(z, a, b, R, t, p, f, V, Ms, rhs, Q, W)
+    if full:
+        _hs_jac(z, p, f, J, V, Ms, rhs, Q, W, np.empty((4, 9, 4)))
+    return full
 
 
 @_inline
@@ -522,49 +549,176 @@ def _dg_times(g, gp, s, omc, v, out):
     out[2] = s * b2 + omc * ((gp[0] * a1 - gp[1] * a0) + (g[0] * b1 - g[1] * b0))
 
 
+#: lanes of the grid's Cholesky factorisations, side by side (a multiple of the SIMD width)
+_LANES = 128
+
+
 @_kernel
-def hs_grid(a, b, R, t, p, nb, nt):
-    """The variable-projection misfit (normal equations) of the HS equations on the grid
-    of ``nb`` elevations β ∈ (0, π) and ``nt`` angles per position in (−π, π) (a, b the
-    circle, R (3, 3, 3), t (3, 3), pitch p): position j's rows depend on (β, θ_j) only,
-    so the 5x5 normal equations of a grid point are sums of three precomputed blocks.
-    Returns the misfit (nb, nt, nt, nt) (NaN where the equations are singular)."""
-    AtA = np.empty((3, nb, nt, 5, 5))
-    Atr = np.empty((3, nb, nt, 5))
-    rtr = np.empty((3, nb, nt))
-    A, r, g, V, G = np.empty((3, 5)), np.empty(3), np.empty(3), np.empty((2, 3)), np.empty((3, 3))
+def _hs_blocks(a, b, R, t, p, nb, nt):
+    """Position j's part of the grid's normal equations at each elevation and angle of
+    :func:`hs_grid`: B (3, nb, 21, nt), the lower triangle of AᵀA row by row (15), Aᵀr (5)
+    and rᵀr of its three rows (:func:`_hs_rows`)."""
+    B = np.empty((3, nb, 21, nt))
+    A, r, g = np.empty((3, 5)), np.empty(3), np.empty(3)
+    e1, e2, G = np.empty(3), np.empty(3), np.empty((3, 3))
     for ib in range(nb):
         beta = (ib + 0.5) * np.pi / nb
         cb, sb = math.cos(beta), math.sin(beta)
         for i in range(3):
             g[i] = cb * a[i] + sb * b[i]
+        _perp3(g, e1, e2)
         for it in range(nt):
             th = -np.pi + (it + 0.5) * 2 * np.pi / nt
+            _rot3(g, th, G)
             for j in range(3):
-                _hs_rows(g, th, R[j], t[j], p, A, r, V, G)
+                for i in range(3):
+                    for k in range(3):
+                        A[i, k] = R[j, i, k] - G[i, k]
+                    A[i, 3] = G[i, 0] * e1[0] + G[i, 1] * e1[1] + G[i, 2] * e1[2] - e1[i]
+                    A[i, 4] = G[i, 0] * e2[0] + G[i, 1] * e2[1] + G[i, 2] * e2[2] - e2[i]
+                    r[i] = p * th * g[i] - t[j, i]
+                q = 0
                 for u in range(5):
-                    for v in range(5):
-                        AtA[j, ib, it, u, v] = A[0, u] * A[0, v] + A[1, u] * A[1, v] + A[2, u] * A[2, v]
-                    Atr[j, ib, it, u] = A[0, u] * r[0] + A[1, u] * r[1] + A[2, u] * r[2]
-                rtr[j, ib, it] = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+                    for w in range(u + 1):
+                        B[j, ib, q, it] = A[0, u] * A[0, w] + A[1, u] * A[1, w] + A[2, u] * A[2, w]
+                        q += 1
+                for u in range(5):
+                    B[j, ib, 15 + u, it] = A[0, u] * r[0] + A[1, u] * r[1] + A[2, u] * r[2]
+                B[j, ib, 20, it] = r[0] * r[0] + r[1] * r[1] + r[2] * r[2]
+    return B
+
+
+@_kernel
+def _misfit_lanes(P, out, n):
+    """:func:`_misfit` of the normal equations in lanes 0 … n − 1 (n ≤ ``_LANES``) of P
+    (21 · _LANES,): entry q of lane l at ``P[q · _LANES + l]`` (q as :func:`_hs_blocks`,
+    1e-12 added to the diagonal here), the same operations in the same order, branch-free
+    so that the lanes run side by side (SIMD): a pivot that is not positive or not finite
+    gives NaN."""
+    for l in range(n):
+        m00 = P[l] + 1e-12
+        m11 = P[2 * _LANES + l] + 1e-12
+        m22 = P[5 * _LANES + l] + 1e-12
+        m33 = P[9 * _LANES + l] + 1e-12
+        m44 = P[14 * _LANES + l] + 1e-12
+        d0 = m00
+        l00 = np.sqrt(d0)
+        l10 = P[_LANES + l] / l00
+        l20 = P[3 * _LANES + l] / l00
+        l30 = P[6 * _LANES + l] / l00
+        l40 = P[10 * _LANES + l] / l00
+        d1 = m11 - l10 * l10
+        l11 = np.sqrt(d1)
+        l21 = (P[4 * _LANES + l] - l20 * l10) / l11
+        l31 = (P[7 * _LANES + l] - l30 * l10) / l11
+        l41 = (P[11 * _LANES + l] - l40 * l10) / l11
+        d2 = m22 - l20 * l20 - l21 * l21
+        l22 = np.sqrt(d2)
+        l32 = (P[8 * _LANES + l] - l30 * l20 - l31 * l21) / l22
+        l42 = (P[12 * _LANES + l] - l40 * l20 - l41 * l21) / l22
+        d3 = m33 - l30 * l30 - l31 * l31 - l32 * l32
+        l33 = np.sqrt(d3)
+        l43 = (P[13 * _LANES + l] - l40 * l30 - l41 * l31 - l42 * l32) / l33
+        d4 = m44 - l40 * l40 - l41 * l41 - l42 * l42 - l43 * l43
+        l44 = np.sqrt(d4)
+        y0 = P[15 * _LANES + l] / l00
+        y1 = (P[16 * _LANES + l] - l10 * y0) / l11
+        y2 = (P[17 * _LANES + l] - l20 * y0 - l21 * y1) / l22
+        y3 = (P[18 * _LANES + l] - l30 * y0 - l31 * y1 - l32 * y2) / l33
+        y4 = (P[19 * _LANES + l] - l40 * y0 - l41 * y1 - l42 * y2 - l43 * y3) / l44
+        s = P[20 * _LANES + l] - y0 * y0 - y1 * y1 - y2 * y2 - y3 * y3 - y4 * y4
+        ok = ((d0 > 0.0) & (d1 > 0.0) & (d2 > 0.0) & (d3 > 0.0) & (d4 > 0.0) & (d0 < np.inf)
+              & (d1 < np.inf) & (d2 < np.inf) & (d3 < np.inf) & (d4 < np.inf))
+        out[l] = np.sqrt(abs(s)) if ok else np.nan
+
+
+@_kernel
+def _hs_grid_into(a, b, R, t, p, nb, nt, F):
+    """:func:`hs_grid` written into F, the flat (nb + 2) × (nt + 2)³ array of the grid
+    padded by one point on each side (C order): the misfit at grid point
+    (ib, i2, i3, i4) goes to padded point (ib + 1, i2 + 1, i3 + 1, i4 + 1), the padding is
+    left alone (:func:`_hs_minima_into` reads it)."""
+    if nt > _LANES:
+        raise ValueError("hs_grid: more angles than _LANES")
+    B = _hs_blocks(a, b, R, t, p, nb, nt)
+    P = np.empty(21 * _LANES)
+    out = np.empty(_LANES)
+    rows = _LANES // nt
+    m = nt + 2
+    for ib in range(nb):
+        B0, B1, B2 = B[0, ib], B[1, ib], B[2, ib]
+        for i2 in range(nt):
+            for i3s in range(0, nt, rows):                  # θ₃ rows i3s … i3s + nr − 1
+                nr = min(rows, nt - i3s)
+                for q in range(21):
+                    s0 = B0[q, i2]
+                    for r in range(nr):
+                        s = s0 + B1[q, i3s + r]
+                        for i4 in range(nt):
+                            P[q * _LANES + r * nt + i4] = s + B2[q, i4]
+                _misfit_lanes(P, out, nr * nt)
+                for r in range(nr):
+                    o = (((ib + 1) * m + i2 + 1) * m + i3s + r + 1) * m + 1
+                    for i4 in range(nt):
+                        F[o + i4] = out[r * nt + i4]
+
+
+@_kernel
+def hs_grid(a, b, R, t, p, nb, nt):
+    """The variable-projection misfit (normal equations) of the HS equations on the grid
+    of ``nb`` elevations β ∈ (0, π) and ``nt`` ≤ ``_LANES`` angles per position in
+    (−π, π) (a, b the circle, R (3, 3, 3), t (3, 3), pitch p): position j's rows depend on
+    (β, θ_j) only, so the 5x5 normal equations of a grid point are sums of three
+    precomputed blocks (:func:`_hs_blocks`), factorised a few θ₃ rows at a time
+    (:func:`_misfit_lanes`).  Returns the misfit (nb, nt, nt, nt) (NaN where the
+    equations are singular)."""
+    m = nt + 2
+    F = np.empty((nb + 2) * m ** 3)
+    _hs_grid_into(a, b, R, t, p, nb, nt, F)
     f = np.empty((nb, nt, nt, nt))
-    M, S, v, sv = np.empty((5, 5)), np.empty((5, 5)), np.empty(5), np.empty(5)
     for ib in range(nb):
         for i2 in range(nt):
             for i3 in range(nt):
-                for u in range(5):                  # positions 2 and 3, once for every θ₄
-                    for w in range(u + 1):
-                        S[u, w] = AtA[0, ib, i2, u, w] + AtA[1, ib, i3, u, w]
-                    sv[u] = Atr[0, ib, i2, u] + Atr[1, ib, i3, u]
-                sr = rtr[0, ib, i2] + rtr[1, ib, i3]
+                o = (((ib + 1) * m + i2 + 1) * m + i3 + 1) * m + 1
                 for i4 in range(nt):
-                    for u in range(5):
-                        for w in range(u + 1):
-                            M[u, w] = S[u, w] + AtA[2, ib, i4, u, w]
-                        M[u, u] += 1e-12
-                        v[u] = sv[u] + Atr[2, ib, i4, u]
-                    f[ib, i2, i3, i4] = _misfit(M, v, sr + rtr[2, ib, i4])
+                    f[ib, i2, i3, i4] = F[o + i4]
     return f
+
+
+@_kernel
+def _hs_minima_into(F, nb, nt, hits):
+    """The local minima (:func:`hs_grid_minima`) of the misfit held in F as
+    :func:`_hs_grid_into` leaves it, its θ padding +inf: its β padding (the slices before
+    and after) set here to the wrapped slices, then every point compared with its eight
+    neighbours, the θ₄ comparisons side by side.  Writes the minima's indices into the
+    (nb, nt, nt, nt) grid in C order to hits (≥ nb nt³,) and returns their count."""
+    m = nt + 2
+    sb, s2, s3 = m * m * m, m * m, m                  # strides of β, θ₂, θ₃ in F
+    for i2 in range(nt):
+        for i3 in range(nt):
+            for i4 in range(nt):
+                o = (i2 + 1) * s2 + (i3 + 1) * s3 + i4 + 1
+                w = (nt - i2) * s2 + (nt - i3) * s3 + nt - i4      # θ → −θ
+                F[o] = F[nb * sb + w]
+                F[(nb + 1) * sb + o] = F[sb + w]
+    n = 0
+    ok = np.empty(nt, np.bool_)
+    for ib in range(nb):
+        for i2 in range(nt):
+            for i3 in range(nt):
+                c = (ib + 1) * sb + (i2 + 1) * s2 + (i3 + 1) * s3 + 1
+                for i4 in range(nt):
+                    v = F[c + i4]
+                    ok[i4] = ((v <= F[c + i4 - sb]) & (v <= F[c + i4 + sb])
+                              & (v <= F[c + i4 - s2]) & (v <= F[c + i4 + s2])
+                              & (v <= F[c + i4 - s3]) & (v <= F[c + i4 + s3])
+                              & (v <= F[c + i4 - 1]) & (v <= F[c + i4 + 1]))
+                k = ((ib * nt + i2) * nt + i3) * nt
+                for i4 in range(nt):
+                    if ok[i4]:
+                        hits[n] = k + i4
+                        n += 1
+    return n
 
 
 @_kernel
@@ -572,27 +726,112 @@ def hs_grid_minima(f):
     """Mask (nb, nt, nt, nt) of the local minima of the HS grid misfit f (from
     :func:`hs_grid`): no larger than any of its eight neighbours (so never where f or a
     neighbour is NaN), β wrapping to β ± π with θ → −θ (the same axis reversed; the θ
-    grid is symmetric), θ not wrapping."""
+    grid is symmetric), θ not wrapping.  Compared with a copy of f padded by those
+    wrapped slices in β and by +inf in θ (:func:`_hs_minima_into`)."""
     nb, nt = f.shape[0], f.shape[1]
-    out = np.zeros(f.shape, np.bool_)
+    m = nt + 2
+    F = np.full((nb + 2) * m ** 3, np.inf)
     for ib in range(nb):
         for i2 in range(nt):
             for i3 in range(nt):
+                o = (((ib + 1) * m + i2 + 1) * m + i3 + 1) * m + 1
                 for i4 in range(nt):
-                    v = f[ib, i2, i3, i4]
-                    lo = f[ib - 1, i2, i3, i4] if ib > 0 else \
-                        f[nb - 1, nt - 1 - i2, nt - 1 - i3, nt - 1 - i4]
-                    hi = f[ib + 1, i2, i3, i4] if ib < nb - 1 else \
-                        f[0, nt - 1 - i2, nt - 1 - i3, nt - 1 - i4]
-                    ok = v <= lo and v <= hi                # False at NaN, either side
-                    ok = ok and (i2 == 0 or v <= f[ib, i2 - 1, i3, i4])
-                    ok = ok and (i2 == nt - 1 or v <= f[ib, i2 + 1, i3, i4])
-                    ok = ok and (i3 == 0 or v <= f[ib, i2, i3 - 1, i4])
-                    ok = ok and (i3 == nt - 1 or v <= f[ib, i2, i3 + 1, i4])
-                    ok = ok and (i4 == 0 or v <= f[ib, i2, i3, i4 - 1])
-                    ok = ok and (i4 == nt - 1 or v <= f[ib, i2, i3, i4 + 1])
-                    out[ib, i2, i3, i4] = ok
+                    F[o + i4] = f[ib, i2, i3, i4]
+    hits = np.empty(nb * nt ** 3, np.int64)
+    out = np.zeros(f.shape, np.bool_)
+    for k in hits[:_hs_minima_into(F, nb, nt, hits)]:
+        k, i4 = divmod(k, nt)
+        k, i3 = divmod(k, nt)
+        ib, i2 = divmod(k, nt)
+        out[ib, i2, i3, i4] = True
     return out
+
+
+@_kernel
+def hs_starts(R, t, P, circle, z, p, grids):
+    """The starting points of the HS search on n great circles of one task (R (3, 3, 3),
+    t (3, 3), pitch p): per circle, its roots ``z`` (m, 4) = (β, θ₂, θ₃, θ₄) (the RS links
+    continued to pitch p; ``circle`` (m,) ascending), then the local minima
+    (:func:`_hs_minima_into`) of each grid (nb, nt) of ``grids`` (k, 2) (:func:`hs_grid`),
+    in the grid's C order.
+
+    Parameters
+    ----------
+    P : ndarray (n, 2, 3)
+        Circle i: ``g(β) = cos β P[i, 0] + sin β P[i, 1]``.
+
+    Returns
+    -------
+    starts : ndarray (≥ M, 4)
+    own : ndarray (≥ M,) of int
+        The circle of each start (ascending).
+    M : int
+        The number of starts (the rows after them are not set).
+    """
+    # one padded grid and one list of minima for all the circles and grids (the padding
+    # refilled where the angles change)
+    size, most = 0, 0
+    for q in range(grids.shape[0]):
+        nb, nt = grids[q, 0], grids[q, 1]
+        size, most = max(size, (nb + 2) * (nt + 2) ** 3), max(most, nb * nt ** 3)
+    F, hits = np.empty(size), np.empty(most, np.int64)
+    cap = z.shape[0] + 256
+    buf, own = np.empty((cap, 4)), np.empty(cap, np.int64)
+    m, j, last = 0, 0, -1
+    for i in range(P.shape[0]):
+        while j < circle.shape[0] and circle[j] == i:
+            buf[m] = z[j]
+            own[m] = i
+            m, j = m + 1, j + 1
+        for q in range(grids.shape[0]):
+            nb, nt = grids[q, 0], grids[q, 1]
+            if nt != last:
+                F[:] = np.inf
+                last = nt
+            _hs_grid_into(P[i, 0], P[i, 1], R, t, p, nb, nt, F)
+            n = _hs_minima_into(F, nb, nt, hits)
+            if m + n + circle.shape[0] - j > cap:          # room for the later circles' roots
+                cap = 2 * (m + n) + circle.shape[0] - j
+                grown, owned = np.empty((cap, 4)), np.empty(cap, np.int64)
+                for r in range(m):
+                    owned[r] = own[r]
+                    for c in range(4):
+                        grown[r, c] = buf[r, c]
+                buf, own = grown, owned
+            for h in hits[:n]:
+                h, i4 = divmod(h, nt)
+                h, i3 = divmod(h, nt)
+                ib, i2 = divmod(h, nt)
+                buf[m, 0] = (ib + 0.5) * np.pi / nb
+                buf[m, 1] = -np.pi + (i2 + 0.5) * 2 * np.pi / nt
+                buf[m, 2] = -np.pi + (i3 + 0.5) * 2 * np.pi / nt
+                buf[m, 3] = -np.pi + (i4 + 0.5) * 2 * np.pi / nt
+                own[m] = i
+                m += 1
+    return buf, own, m
+
+
+@_kernel
+def hs_distinct(own, g, C):
+    """Mask of the links to keep, in order: link k is dropped when an earlier kept link of
+    the same circle ``own`` has the same axis direction (|g·g'| within 1e-8 of 1) and
+    sphere centre (within 1e-7); g, C (M, 3)."""
+    M = own.shape[0]
+    keep = np.zeros(M, np.bool_)
+    for k in range(M):
+        keep[k] = True
+        for j in range(k - 1, -1, -1):
+            if own[j] != own[k]:
+                break
+            if not keep[j]:
+                continue
+            d = g[k, 0] * g[j, 0] + g[k, 1] * g[j, 1] + g[k, 2] * g[j, 2]
+            e = math.sqrt((C[k, 0] - C[j, 0]) ** 2 + (C[k, 1] - C[j, 1]) ** 2
+                          + (C[k, 2] - C[j, 2]) ** 2)
+            if abs(abs(d) - 1) < 1e-8 and e < 1e-7:
+                keep[k] = False
+                break
+    return keep
 
 
 @_inline
@@ -610,45 +849,36 @@ def _misfit(M, v, rr):
 
 
 # ------------------------------------------------------------------ Levenberg–Marquardt
-_HH, _HS = 0, 1       # the residuals the Levenberg–Marquardt below knows
-
-
 @_inline
-def _residual(kind, z, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
-    """System k's residual f at z: the HH misfit about base P[k] with pitches v, or the HS
-    residual on the circle P[0] = (a, b) with pitch v[0] (scratch as :func:`_scratch`)."""
-    if kind == _HH:
-        _hh_residual(z, P[k], R, t, v, f, V, Ms, A6, rhs6, M, b, x)
-    else:
-        _hs_residual(z, P[0, 0], P[0, 1], R, t, v[0], f, V, Ms, A9, rhs9, Q)
-
-
-@_inline
-def _cost(kind, z, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q):
-    """Residual f (r,) of system k at z; returns |f|² (inf where not finite); scratch as
-    :func:`_scratch`."""
-    _residual(kind, z, k, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
+def _cost_hh(z, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, rhs9, Q, W):
+    """A system's residual f at z, P its parameters: the HH misfit about the base
+    P = (g0, e1, e2) with pitches v (scratch as :func:`_scratch`, W (9, 9)).  Returns
+    (|f|², inf where not finite; True: the Jacobian is then tried)."""
+    _hh_residual(z, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x)
     cost = 0.0
     for r in range(f.shape[0]):
         cost += f[r] * f[r]
-    return cost if math.isfinite(cost) else np.inf
+    return (cost if math.isfinite(cost) else np.inf), True
 
 
 @_inline
-def _jacobian(kind, z, f0, k, P, R, t, v, h, J, fp, zt, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q,
-              W):
-    """Jacobian J (r, n) of system k at z (f0 its residual there): forward differences for
-    the HH misfit (as MINPACK's lmdif; measured: the same links as central ones on the
-    reference tasks, at half the residuals), the exact variable-projection Jacobian for the
-    HS residual (:func:`_hs_jacobian`: one evaluation against central differences' eight;
-    the links of 116 reference tasks kept, 20 more found); False where not finite.  The
-    HH residual is called from one place here (each call site is a copy of it, inlined)."""
-    if kind == _HS:
-        return _hs_jacobian(z, P[0, 0], P[0, 1], R, t, v[0], f0, J, V, Ms, A9, rhs9, Q, W)
+def _cost_hs(z, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, rhs9, Q, W):
+    """As :func:`_cost_hh`, the HS residual on the circle P = (a, b) with pitch v[0]
+    (:func:`_hs_eval`); the second value says whether the equations' factorisation has
+    full rank, i.e. whether the Jacobian is to be had there (:func:`_jac_hs` reuses it)."""
+    return _hs_eval(z, P[0], P[1], R, t, v[0], f, V, Ms, rhs9, Q, W)
+
+
+@_inline
+def _jac_hh(z, f0, P, R, t, v, h, J, fp, zt, V, Ms, A6, rhs6, M, b, x, rhs9, Q, W, X):
+    """Jacobian J (6, 2) of the HH misfit at z (f0 its residual there) by forward
+    differences (as MINPACK's lmdif; measured: the same links as central ones on the
+    reference tasks, at half the residuals); False where not finite.  The HH residual is
+    called from one place here (each call site is a copy of it, inlined)."""
     for i in range(z.shape[0]):
         zt[:] = z
         zt[i] = z[i] + h
-        _residual(kind, zt, k, P, R, t, v, fp, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
+        _hh_residual(zt, P, R, t, v, fp, V, Ms, A6, rhs6, M, b, x)
         for r in range(fp.shape[0]):
             J[r, i] = (fp[r] - f0[r]) / h
             if not math.isfinite(J[r, i]):
@@ -656,11 +886,30 @@ def _jacobian(kind, z, f0, k, P, R, t, v, h, J, fp, zt, V, Ms, A6, rhs6, M, b, x
     return True
 
 
-@_kernel
-def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
-    """Levenberg–Marquardt for many independent small systems, one after another.
+@_inline
+def _jac_hs(z, f0, P, R, t, v, h, J, fp, zt, V, Ms, A6, rhs6, M, b, x, rhs9, Q, W, X):
+    """The exact variable-projection Jacobian of the HS residual at z (:func:`_hs_jac`,
+    from the factorisation of the :func:`_cost_hs` call there just before: one evaluation
+    against central differences' eight; the links of 116 reference tasks kept, 20 more
+    found).  Scratch as :func:`_cost_hh`, X (4, 9, 4)."""
+    _hs_jac(z, v[0], f0, J, V, Ms, rhs9, Q, W, X)
+    return True
 
-    System k's residual (r,) at z (n,) is ``_residual(kind, z, k, P, R, t, v, f)``.  Each
+
+_HH, _HS = 0, 1       # the residuals the Levenberg–Marquardt below knows
+
+
+def _levenberg_marquardt(kind, r):
+    """Levenberg–Marquardt for many independent small systems, one after another, of the
+    residual ``kind`` (``_HH``: :func:`_cost_hh`, :func:`_jac_hh`; ``_HS``:
+    :func:`_cost_hs`, :func:`_jac_hs`) of r components: ``lm(z0, P, sel, R, t, v, iters,
+    h)``, compiled once per residual, the other one pruned (one function for both, a
+    branch on the kind at run time, ran the HS search 35 % slower, measured).  The kind
+    is a closure constant, an int, so that numba's cache holds the function (a closure
+    over functions is compiled anew in every process), branched on in the loop itself
+    (pruned before inlining: ~30 % less to compile than a branch in an inlined helper).
+
+    System k's residual (r,) at z (n,) is the kind's with parameters ``P[sel[k]]``.  Each
     system stops when its residual vanishes (cost ≤ 1e-30, or ≤ 1e-26 and a step fails to
     lower it: round-off), when its damping runs away (≥ 1e12), or when it is stuck away
     from a zero: stationary (the gradient Jᵀf below 1e-6 of |J| |f|: f orthogonal to the
@@ -671,72 +920,93 @@ def _levenberg_marquardt(kind, z0, P, R, t, v, r, iters, h):
     point, so that the residual and the Jacobian are each called from one place.
 
     Returns the final z (N, n), |f| (N,) and the iterations taken (N,)."""
-    N, n = z0.shape
-    z = z0.copy()
-    res = np.empty(N)
-    its = np.zeros(N, np.int64)
-    f, fn, fp = np.empty(r), np.empty(r), np.empty(r)
-    J, Jn = np.empty((r, n)), np.empty((r, n))
-    zt, za, step, Jtf, diag = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    JtJ = np.empty((n, n))
-    hist = np.empty(iters + 1)
-    V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q = _scratch()
-    W = np.zeros((9, 9))
-    for k in range(N):
-        zk = z[k]
-        za[:] = zk
-        cost = np.inf
-        lam = 1e-3
-        it = -1                                   # −1: the start, evaluated as a trial
-        while True:
-            cn = _cost(kind, za, k, P, R, t, v, fn, V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q)
-            # the trial's Jacobian only where it is accepted (a rejected step costs one residual)
-            if (it < 0 or cn < cost) and _jacobian(kind, za, fn, k, P, R, t, v, h, Jn, fp, zt,
-                                                   V, Ms, A6, rhs6, M, b, x, A9, rhs9, Q, W):
-                zk[:] = za
-                f[:] = fn
-                J[:, :] = Jn
-                cost = cn
-                if it >= 0:
-                    lam = max(lam / 5, 1e-12)
-            elif it >= 0:
-                if cost <= 1e-26:
-                    break                  # at round-off: a rejected step will not lower it
-                lam *= 8
-            it += 1
-            if it >= iters:
-                break
-            hist[it] = cost
-            if not (math.isfinite(cost) and cost > 1e-30 and lam < 1e12):
-                break
-            if it >= 10 and not (cost < 0.999 * hist[it - 10] or cost <= 1e-20):
-                break
-            its[k] = it + 1
-            g2 = 0.0
-            dsum = 0.0
-            for i in range(n):
-                s = 0.0
-                for q in range(r):
-                    s += J[q, i] * f[q]
-                Jtf[i] = -s
-                g2 += s * s
-                for j in range(n):
+
+    def lm(z0, P, sel, R, t, v, iters, h):
+        N, n = z0.shape
+        z = z0.copy()
+        res = np.empty(N)
+        its = np.zeros(N, np.int64)
+        f, fn, fp = np.empty(r), np.empty(r), np.empty(r)
+        J, Jn = np.empty((r, n)), np.empty((r, n))
+        zt, za, step, Jtf, diag = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+        JtJ = np.empty((n, n))
+        hist = np.empty(iters + 1)
+        V, Ms, A6, rhs6, M, b, x, _, rhs9, Q = _scratch()
+        W, X = np.zeros((9, 9)), np.zeros((4, 9, 4))
+        for k in range(N):
+            zk = z[k]
+            za[:] = zk
+            cost = np.inf
+            lam = 1e-3
+            it = -1                                   # −1: the start, evaluated as a trial
+            while True:
+                # the kind's branches here, on the closure constant: numba prunes the other
+                # one before inlining (inside an inlined helper it would inline both first)
+                if kind == _HS:
+                    cn, ok = _cost_hs(za, P[sel[k]], R, t, v, fn, V, Ms, A6, rhs6, M, b, x,
+                                      rhs9, Q, W)
+                else:
+                    cn, ok = _cost_hh(za, P[sel[k]], R, t, v, fn, V, Ms, A6, rhs6, M, b, x,
+                                      rhs9, Q, W)
+                # the trial's Jacobian only where it is accepted (a rejected step: one residual)
+                take = (it < 0 or cn < cost) and ok
+                if take:
+                    if kind == _HS:
+                        take = _jac_hs(za, fn, P[sel[k]], R, t, v, h, Jn, fp, zt, V, Ms, A6,
+                                       rhs6, M, b, x, rhs9, Q, W, X)
+                    else:
+                        take = _jac_hh(za, fn, P[sel[k]], R, t, v, h, Jn, fp, zt, V, Ms, A6,
+                                       rhs6, M, b, x, rhs9, Q, W, X)
+                if take:
+                    zk[:] = za
+                    f[:] = fn
+                    J[:, :] = Jn
+                    cost = cn
+                    if it >= 0:
+                        lam = max(lam / 5, 1e-12)
+                elif it >= 0:
+                    if cost <= 1e-26:
+                        break                  # at round-off: a rejected step will not lower it
+                    lam *= 8
+                it += 1
+                if it >= iters:
+                    break
+                hist[it] = cost
+                if not (math.isfinite(cost) and cost > 1e-30 and lam < 1e12):
+                    break
+                if it >= 10 and not (cost < 0.999 * hist[it - 10] or cost <= 1e-20):
+                    break
+                its[k] = it + 1
+                g2 = 0.0
+                dsum = 0.0
+                for i in range(n):
                     s = 0.0
                     for q in range(r):
-                        s += J[q, i] * J[q, j]
-                    JtJ[i, j] = s
-                diag[i] = JtJ[i, i]
-                dsum += diag[i]
-            if math.sqrt(g2) <= 1e-6 * math.sqrt(dsum * cost) and cost > 1e-20:
-                break                                              # stationary
-            for i in range(n):
-                JtJ[i, i] += lam * (diag[i] + 1e-12)
-            if not _solve(JtJ, Jtf, step):
-                step[:] = 0.0
-            for i in range(n):
-                za[i] = zk[i] + (step[i] if math.isfinite(step[i]) else 0.0)
-        res[k] = math.sqrt(cost)
-    return z, res, its
+                        s += J[q, i] * f[q]
+                    Jtf[i] = -s
+                    g2 += s * s
+                    for j in range(n):
+                        s = 0.0
+                        for q in range(r):
+                            s += J[q, i] * J[q, j]
+                        JtJ[i, j] = s
+                    diag[i] = JtJ[i, i]
+                    dsum += diag[i]
+                if math.sqrt(g2) <= 1e-6 * math.sqrt(dsum * cost) and cost > 1e-20:
+                    break                                              # stationary
+                for i in range(n):
+                    JtJ[i, i] += lam * (diag[i] + 1e-12)
+                if not _solve(JtJ, Jtf, step):
+                    step[:] = 0.0
+                for i in range(n):
+                    za[i] = zk[i] + (step[i] if math.isfinite(step[i]) else 0.0)
+            res[k] = math.sqrt(cost)
+        return z, res, its
+    return _kernel(lm)
+
+
+_hh_lm = _levenberg_marquardt(_HH, 6)
+_hs_lm = _levenberg_marquardt(_HS, 9)
 
 
 # ------------------------------------------------------------------ entry points
@@ -745,13 +1015,14 @@ def hh_refine(bases, R, t, pn, iters: int = 80):
     (bases (N, 3, 3): g0, e1, e2), in the tangent coordinates g = g0 + z₁ e1 + z₂ e2;
     R (2, 3, 3), t (2, 3), pn (2,) as :func:`_hh_equations`.  Returns z (N, 2), |f| (N,),
     iterations (N,)."""
-    return _levenberg_marquardt(_HH, np.zeros((len(bases), 2)), bases, R, t, pn, 6, iters,
-                                1e-8)
+    return _hh_lm(np.zeros((len(bases), 2)), bases, np.arange(len(bases)), R, t, pn, iters, 1e-8)
 
 
-def hs_refine(z0, a, b, R, t, p: float, iters: int):
-    """Levenberg–Marquardt on the HS residual from z0 (N, 4) = (β, θ₂, θ₃, θ₄) on the
-    circle of a, b (3,); R (3, 3, 3), t (3, 3), pitch p; its Jacobian exact.  Returns
-    z (N, 4), |f| (N,), iterations (N,)."""
-    return _levenberg_marquardt(_HS, np.ascontiguousarray(z0, float), np.stack([a, b])[None],
-                                R, t, np.array([p], float), 9, iters, 0.0)
+
+def hs_refine(z0, P, sel, R, t, p: float, iters: int):
+    """Levenberg–Marquardt on the HS residual (``_hs_lm``) from z0 (N, 4) = (β, θ₂, θ₃, θ₄),
+    start k on the circle ``P[sel[k]]`` = (a, b) (P (n, 2, 3), sel (N,) of int); R (3, 3,
+    3), t (3, 3), pitch p; its Jacobian exact.  Returns z (N, 4), |f| (N,), iterations
+    (N,)."""
+    return _hs_lm(np.ascontiguousarray(z0, float), P, np.asarray(sel, np.int64), R, t,
+                  np.array([p], float), iters, 0.0)

@@ -963,49 +963,143 @@ def sp_links(screws, azimuth: float, *, frame=None, tol: float = 1e-9) -> list[B
 _HS_GRIDS = ((24, 10), (36, 10))
 
 
-def _hs_grid_starts(R, t, a, b, p, nb, nt):
-    """Local minima (β, θ₂, θ₃, θ₄) (M, 4) of the variable-projection misfit on a grid of
-    ``nb`` elevations β ∈ (0, π) and ``nt`` angles per position in (−π, π)."""
-    from .kernels import hs_grid, hs_grid_minima
-    ib, i2, i3, i4 = np.nonzero(hs_grid_minima(hs_grid(a, b, R, t, p, nb, nt)))
-    bt = (np.arange(nb) + 0.5) * np.pi / nb
-    tg = -np.pi + (np.arange(nt) + 0.5) * 2 * np.pi / nt              # symmetric grid
-    return np.stack([bt[ib], tg[i2], tg[i3], tg[i4]], -1)
-
-
-def _hs_core(R, t, a, b, p, z, steps: int = 3):
-    """HS links (normalised) on the circle (a, b) with pitch p ≠ 0.  Starting points: the
-    RS links of the circle z (M, 4) = (β, θ₂, θ₃, θ₄) (exact, pitch 0) continued to pitch
-    p in ``steps`` steps, and the local minima of the variable-projection misfit on the
-    grids ``_HS_GRIDS`` over the elevation β and the three helical angles; all refined by
-    Levenberg–Marquardt (compiled: :mod:`synthesis.kernels`; R (3, 3, 3), t (3, 3)
-    C-contiguous).  Returns (β, g, C, c, θ)."""
+def _hs_roots(R, t, P, p, circle, z, steps: int = 3):
+    """HS links (normalised) on the great circles P (n, 2, 3) (``g(β) = cos β P[i, 0] +
+    sin β P[i, 1]``) with pitch p ≠ 0, R (3, 3, 3), t (3, 3) C-contiguous.  Starting
+    points: the RS links z (m, 4) = (β, θ₂, θ₃, θ₄) of the circles ``circle`` (m,)
+    (ascending; exact, pitch 0) continued to pitch p in ``steps`` steps, and the local
+    minima of the variable-projection misfit on the grids ``_HS_GRIDS`` over the elevation
+    β and the three helical angles (:func:`synthesis.kernels.hs_starts`); all refined by
+    Levenberg–Marquardt (:func:`synthesis.kernels.hs_refine`), every circle in one call.
+    Returns per circle its links (β, g, C, c, θ), by ascending β."""
     from .binary import _perp
-    from .kernels import hs_refine, hs_systems
+    from .kernels import hs_distinct, hs_refine, hs_starts, hs_systems
     for k in range(1, steps + 1):
-        z, _, _ = hs_refine(z, a, b, R, t, p * k / steps, 10)
-    z0 = np.concatenate([z] + [_hs_grid_starts(R, t, a, b, p, nb, nt) for nb, nt in _HS_GRIDS])
-    z, res, _ = hs_refine(z0, a, b, R, t, p, 40)
-    z = z[(res < 1e-9) & np.all(np.abs(z[:, 1:]) <= np.pi, 1)]   # (−π, π]: no further turn
-    G = np.cos(z[:, :1]) * a + np.sin(z[:, :1]) * b
+        z, _, _ = hs_refine(z, P, circle, R, t, p * k / steps, 10)
+    z, own, m = hs_starts(R, t, P, circle, z, p, np.array(_HS_GRIDS, np.int64))
+    z, res, _ = hs_refine(z[:m], P, own[:m], R, t, p, 40)
+    own = own[:m]
+    keep = (res < 1e-9) & np.all(np.abs(z[:, 1:]) <= np.pi, 1)   # (−π, π]: no further turn
+    z, own = z[keep], own[keep]
+    G = np.cos(z[:, :1]) * P[own, 0] + np.sin(z[:, :1]) * P[own, 1]
     # every converged start's points at once: least squares by the SVD (as lstsq's gelsd)
     A, rhs = hs_systems(G, np.ascontiguousarray(z[:, 1:]), R, t, p)
     U, s, Vt = np.linalg.svd(A, full_matrices=False)
     x = np.einsum("kij,ki->kj", Vt, np.einsum("kji,kj->ki", U, rhs) / s)
     E1, E2 = _perp(G)
-    out = []
-    for k in np.flatnonzero(s[:, -1] >= 1e-9 * s[:, 0]):
-        beta, th, g = z[k, 0], z[k, 1:], G[k]
-        C, c = x[k, :3], x[k, 3] * E1[k] + x[k, 4] * E2[k]
-        if beta < 0 or beta >= np.pi:                            # back to β ∈ [0, π)
-            k2 = np.floor(beta / np.pi)
-            if int(k2) % 2:
-                g, th = -g, -th
-            beta = beta - k2 * np.pi
-        if any(abs(abs(g @ o[1]) - 1) < 1e-8 and np.linalg.norm(C - o[2]) < 1e-7 for o in out):
+    ok = s[:, -1] >= 1e-9 * s[:, 0]
+    z, own, G, C = z[ok], own[ok], G[ok], x[ok, :3]
+    c = x[ok, 3:4] * E1[ok] + x[ok, 4:5] * E2[ok]
+    beta, th = z[:, 0], z[:, 1:]
+    k2 = np.where((beta < 0) | (beta >= np.pi), np.floor(beta / np.pi), 0.0)   # β ∈ [0, π)
+    flip = np.where(np.mod(k2, 2) != 0, -1.0, 1.0)[:, None]
+    beta, G, th = beta - k2 * np.pi, G * flip, th * flip
+    keep = hs_distinct(own, G, C)
+    out = [[] for _ in range(len(P))]
+    for k in np.flatnonzero(keep):
+        out[own[k]].append((float(beta[k]), G[k], C[k], c[k], th[k]))
+    for o in out:
+        o.sort(key=lambda o: o[0])
+    return out
+
+
+def _hs_tasks(T, axes, points, subsets):
+    """The sub-tasks of the task ``T (N, 4, 4)`` (screw ``axes``, ``points`` (N − 1, 3))
+    through the positions ``subsets (S, 4)`` (0-based, each starting at 0), each
+    normalised as :func:`synthesis.binary._task` normalises a task of its own (the same
+    arithmetic): a list of ``_Task``, None where the sub-task's positions coincide, and
+    the error messages (S,) (``""``, or :func:`_subtasks`' message, that of ``_task``)."""
+    from .binary import _Task
+    from .validate import task_scale
+    subsets = np.asarray(subsets, int)
+    error = _subtasks(T, axes, points, subsets).error
+    tasks = []
+    for sub, msg in zip(subsets, error):
+        if msg:
+            tasks.append(None)
             continue
-        out.append((float(beta), g, C, c, th))
-    out.sort(key=lambda o: o[0])
+        Ts = T[sub]
+        c, L, reach = task_scale(Ts, axes[sub[1:] - 1], points[sub[1:] - 1])
+        C = np.eye(4)
+        C[:3, 3] = -c
+        C[:3] /= L
+        C[3] = (0, 0, 0, 1.0)
+        tasks.append(_Task(Ts, C @ Ts @ np.linalg.inv(C), c, L, reach))
+    return tasks, error
+
+
+def _hs_many(tasks, errors, p, psis, F, tol, kind):
+    """HS (``kind`` "HS") or SH links of pitch p ≠ 0 of several sub-tasks (``_Task``, or
+    None where ``errors`` names why not) at each azimuth of ``psis`` (validated numbers;
+    F the frame): per sub-task a list with, per azimuth, its links (residual ≤ tol) or
+    the SynthesisError it raised.  A sub-task's error (coincident positions, a screw that
+    does not turn) holds for each of its azimuths; the RS links (pitch 0, the
+    continuation's starts) of every sub-task and azimuth are found in one pass, the HS
+    roots of a sub-task's azimuths in one compiled search (:func:`_hs_roots`)."""
+    A = len(psis)
+    out: list = [None] * len(tasks)
+    live = []
+    for s, task in enumerate(tasks):
+        msg = errors[s] or _turning_errors(task.T[None], "screws")[0]
+        if msg:
+            out[s] = [SynthesisError(msg)] * A
+        else:
+            live.append(s)
+    if not live:
+        return out
+    Rt = []
+    for s in live:
+        R, t = tasks[s].R, tasks[s].t
+        if kind == "SH":
+            R, t = _inverse(R, t)
+        Rt.append((np.ascontiguousarray(R), np.ascontiguousarray(t)))
+    circles = [_circle(F, psi) for psi in psis]
+    P = np.array(circles)                                        # (A, 2, 3)
+    # the RS links (pitch 0) of every sub-task's circles at once: the continuation's starts
+    circle, rs_beta, *_, rs_th, _, scale = _rs_batch(
+        np.stack([R for R, _ in Rt]), np.stack([t for _, t in Rt]),
+        np.tile(P[:, 0], (len(live), 1)), np.tile(P[:, 1], (len(live), 1)),
+        np.repeat(np.arange(len(live)), A))
+    z = np.zeros(4)
+    I3 = np.eye(3)[None]
+    for k, s in enumerate(live):
+        task, (R, t) = tasks[s], Rt[k]
+        L, c0 = task.L, task.c
+        sc = scale[k * A:(k + 1) * A]
+        live_c = np.flatnonzero(sc != 0)      # elsewhere the RS condition vanishes on it
+        rank = np.cumsum(sc != 0) - 1
+        mine = (circle >= k * A) & (circle < (k + 1) * A)
+        mine[mine] = sc[circle[mine] - k * A] != 0
+        roots = _hs_roots(R, t, np.ascontiguousarray(P[live_c]), p / L,
+                          rank[circle[mine] - k * A],
+                          np.concatenate([rs_beta[mine, None], rs_th[mine]], 1)) \
+            if len(live_c) else []
+        res, links = [], []
+        for i, psi in enumerate(psis):
+            if sc[i] == 0:
+                res.append(SynthesisError(_RS_DEGENERATE))
+                continue
+            res.append([])
+            for beta, g, C, c, th in roots[rank[i]]:
+                G = _rot(g, th)
+                S = np.swapaxes(G, -1, -2) @ R
+                Cw = C * L + c0
+                axis = Line(g, c * L + c0)
+                params = {"azimuth": psi, "elevation": beta}
+                ang = np.r_[0.0, th]
+                if kind == "HS":
+                    link = BinaryLink("HS", axis.canonical(), Line._exact(g.copy(), Cw), p,
+                                      np.nan, ang, p * ang, z.copy(), z.copy(), 0.0, params,
+                                      sphere_rotations=np.concatenate([I3, S]))
+                else:
+                    link = BinaryLink("SH", Line._exact(g.copy(), Cw), Line._exact(
+                        g.copy(), axis.foot_from(Cw)), np.nan, p, z, z.copy(), -ang, -p * ang,
+                        0.0, params, sphere_rotations=np.concatenate([I3, np.swapaxes(S, -1, -2)]))
+                res[-1].append(link)
+                links.append(link)
+        _residuals(links, task)                       # all azimuths' links at once
+        out[s] = [r if isinstance(r, SynthesisError) else [lk for lk in r if lk.residual <= tol]
+                  for r in res]
     return out
 
 
@@ -1014,78 +1108,55 @@ def _hs_family(screws, pitch, azimuths, frame, tol, kind):
     ``azimuths``: a list with, per azimuth, its links or the SynthesisError it raised.
     The task is validated and normalised once for all azimuths (bad input common to all
     of them raises)."""
-    task = _task(screws, "screws", (4,))
+    T, axes, points = _task_arrays(screws, 4)
+    tasks, errors = _hs_tasks(T, axes, points, np.arange(4)[None])
+    if errors[0]:
+        raise SynthesisError(errors[0])
     scr = _screws(screws, "screws")
     p = number(pitch, "pitch", unit_="length/rad")
     psis = [number(psi, "azimuth", unit_="rad") for psi in azimuths]
     tol = number(tol, "tol", positive=True)
     F = _frame_arg(frame, scr)
-    out: list = []
     if p == 0:
+        out: list = []
         for psi in psis:
             try:
                 out.append(_rs_family(scr, psi, F, tol, "RS" if kind == "HS" else "SR"))
             except SynthesisError as e:
                 out.append(e)
         return out
-    _check_turning(task, "screws")
-    R, t = task.R, task.t
-    if kind == "SH":
-        R, t = _inverse(R, t)
-    R, t = np.ascontiguousarray(R), np.ascontiguousarray(t)
-    L, c0 = task.L, task.c
-    n = len(task.T)
-    z = np.zeros(n)
-    I3 = np.eye(3)[None]
-    links = []
-    circles = [_circle(F, psi) for psi in psis]
-    # the RS links (pitch 0) of every azimuth's circle at once: the continuation's starts
-    circle, rs_beta, *_, rs_th, _, scale = _rs_batch(
-        R[None], t[None], *map(np.array, zip(*circles)), np.zeros(len(psis), int))
-    for i, psi in enumerate(psis):
-        if scale[i] == 0:                       # the RS condition vanishes on the circle
-            out.append(SynthesisError(_RS_DEGENERATE))
-            continue
-        starts = np.concatenate([rs_beta[circle == i, None], rs_th[circle == i]], 1)
-        found = _hs_core(R, t, *circles[i], p / L, starts)
-        out.append([])
-        for beta, g, C, c, th in found:
-            G = _rot(g, th)
-            S = np.swapaxes(G, -1, -2) @ R
-            Cw = C * L + c0
-            axis = Line(g, c * L + c0)
-            params = {"azimuth": psi, "elevation": beta}
-            ang = np.r_[0.0, th]
-            if kind == "HS":
-                link = BinaryLink("HS", axis.canonical(), Line._exact(g.copy(), Cw), p, np.nan,
-                                  ang, p * ang, z.copy(), z.copy(), 0.0, params,
-                                  sphere_rotations=np.concatenate([I3, S]))
-            else:
-                link = BinaryLink("SH", Line._exact(g.copy(), Cw), Line._exact(
-                    g.copy(), axis.foot_from(Cw)), np.nan, p, z, z.copy(), -ang, -p * ang, 0.0,
-                    params, sphere_rotations=np.concatenate([I3, np.swapaxes(S, -1, -2)]))
-            out[-1].append(link)
-            links.append(link)
-    _residuals(links, task)                           # all azimuths' links at once
-    return [r if isinstance(r, SynthesisError) else [lk for lk in r if lk.residual <= tol]
-            for r in out]
+    _check_turning(tasks[0], "screws")
+    return _hs_many(tasks, errors, p, psis, F, tol, kind)[0]
 
 
 def _hs_links_grid(kind, screws, combos, psis, pitch, frame):
     """HS (``kind`` "HS") or SH links of every sub-task × azimuth of a task: sub-task i
     takes the screws of positions ``combos[i]`` (1-based, position 1 implied), azimuth a
-    the ψ ``psis[a]``.  Returns the links, each link's block ``i · len(psis) + a``
-    (ndarray of int) and the error message of each block (``""`` where it solved), an
-    (len(combos), len(psis)) object array."""
+    the ψ ``psis[a]`` on the great circles of ``frame`` (the task's, (3, 3)); the
+    sub-tasks validated and their RS links found together (:func:`_hs_many`).  Returns
+    the links, each link's block ``i · len(psis) + a`` (ndarray of int) and the error
+    message of each block (``""`` where it solved), an (len(combos), len(psis)) object
+    array."""
+    combos = np.asarray(combos, int).reshape(len(combos), -1)
     error = np.full((len(combos), len(psis)), "", dtype=object)
+    T, axes, points = _task_arrays(screws, len(screws) + 1)
+    tasks, errors = _hs_tasks(T, axes, points,
+                              np.concatenate([np.zeros((len(combos), 1), int), combos], 1))
+    p = number(pitch, "pitch", unit_="length/rad")
+    psis = [number(float(psi), "azimuth", unit_="rad") for psi in psis]
+    F = _frame_arg(frame, _screws(screws, "screws"))
+    if p == 0:
+        res = []
+        for i, others in enumerate(combos.tolist()):
+            try:
+                res.append(_hs_family([screws[j - 1] for j in others], p, psis, F, 1e-9, kind))
+            except SynthesisError as e:
+                res.append([e] * len(psis))
+    else:
+        res = _hs_many(tasks, errors, p, psis, F, 1e-9, kind)
     links, blocks = [], []
-    for i, others in enumerate(np.asarray(combos).tolist()):
-        sub = [screws[j - 1] for j in others]
-        try:
-            res = _hs_family(sub, pitch, [float(psi) for psi in psis], frame, 1e-9, kind)
-        except SynthesisError as e:
-            res = [e] * len(psis)
-        for a, found in enumerate(res):
+    for i, found_i in enumerate(res):
+        for a, found in enumerate(found_i):
             if isinstance(found, SynthesisError):
                 error[i, a] = str(found)
                 continue

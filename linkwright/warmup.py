@@ -82,13 +82,20 @@ def _synthesis() -> None:
 
 
 def _approx() -> None:
-    """Surrogate evaluation kernels (``approx.kernels``)."""
+    """Surrogate evaluation kernels (``approx.kernels``) and the reduced model's
+    right-hand side (``closure.reduced_kernels``): the crane's forward dynamics with its
+    loops replaced by spline surrogates."""
     from approx import fit_chebyshev, fit_spline
+    from approx.multiloop import surrogate_dynamics
+    from linkwright.examples import crane
     f, df, d2f = np.sin, np.cos, lambda x: -np.sin(x)
     for s in (fit_spline(f, df, d2f, 0.0, 1.0, n=4), fit_chebyshev(f, df, d2f, 0.0, 1.0,
                                                                      degree=4)):
         for x in (np.linspace(0.0, 1.0, 3), 0.5):
             s.position(x), s.velocity(x), s.acceleration(x)
+    red = surrogate_dynamics(crane.dynamics(), ranges={"stroke1": (0.0, 0.1),
+                                                      "stroke2": (0.0, 0.1)}, size=2)
+    red.simulate((0.0, 0.01), [0.05, 0.05], [0.0, 0.0])
 
 
 #: the groups, heaviest first: name → workload (a function of no arguments)
@@ -97,7 +104,7 @@ GROUPS: dict[str, Callable[[], None]] = {"solver": _solver, "synthesis": _synthe
                                          "approx": _approx}
 #: groups that call another group's kernels: started once that group is cached (two
 #: processes compiling the same kernel at once would each do all the work)
-NEEDS: dict[str, tuple[str, ...]] = {"dynamics": ("solver",)}
+NEEDS: dict[str, tuple[str, ...]] = {"dynamics": ("solver",), "approx": ("solver",)}
 
 
 def _run(name: str) -> dict:

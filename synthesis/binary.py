@@ -367,12 +367,13 @@ def _task(screws, name: str = "screws", n: tuple = (3,)) -> _Task:
                              f"S_12 … S_1n for {' or '.join(map(str, n))} positions, got {len(scr)}")
     T = np.stack([np.eye(4)] + [s.matrix() for s in scr])
     c, L, reach = task_scale(T, [s.axis for s in scr], [s.point for s in scr])
-    for j in range(len(T)):
-        for k in range(j):
-            rot, pos = pose_errors(T[j], T[k], reach)
-            if max(float(rot), float(pos)) < 1e-12:
-                raise SynthesisError(f"{name}: positions {k + 1} and {j + 1} coincide (their "
-                                     f"relative screw is the identity): degenerate task")
+    j, k = np.tril_indices(len(T), -1)          # the pairs k < j, in the order j, then k
+    rot, pos = pose_errors(T[j], T[k], reach)
+    same = np.flatnonzero(np.maximum(rot, pos) < 1e-12)
+    if same.size:
+        j, k = j[same[0]], k[same[0]]
+        raise SynthesisError(f"{name}: positions {k + 1} and {j + 1} coincide (their "
+                             f"relative screw is the identity): degenerate task")
     C = np.eye(4)
     C[:3, 3] = -c
     C[:3] /= L
@@ -471,4 +472,7 @@ def _local_minima(f: np.ndarray, nbr: np.ndarray) -> np.ndarray:
     """Indices of the grid points whose value ``f`` (n,) is finite and no larger than at
     their neighbours ``nbr`` (n, k) (indices into the doubled grid, ±g identified)."""
     fb = np.concatenate([f, f])
-    return np.flatnonzero(np.isfinite(f) & np.all(f[:, None] <= fb[nbr], 1))
+    low = np.isfinite(f)
+    for k in range(nbr.shape[1]):       # a neighbour at a time (np.all over the short axis of
+        low &= f <= fb[nbr[:, k]]       # an (n, k) comparison: 6× the time, measured)
+    return np.flatnonzero(low)

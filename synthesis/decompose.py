@@ -59,7 +59,7 @@ from .spherical import task_frame
 from .transition import TRANSITION_POSITIONS, transition_joints
 from .twopos import two_position_links
 from .validate import array, task_scale
-from .verify import verify_driven
+from .verify import line_frames, verify_frames
 
 __all__ = ["MAIN_POSITIONS", "arrangements", "decomposed_dyads", "FREE_PARAMETERS"]
 
@@ -247,15 +247,34 @@ def _from_rr(lk) -> BinaryLink:
 
 
 # ------------------------------------------------------------------ verification
-def verify_dyads(chains, targets, length: float) -> np.ndarray:
-    """Drive three-joint chains (R, P, C, H) through their joint values with the closure
-    engine (all in one bulk evaluation, :func:`synthesis.verify.verify_driven`) and return
-    each chain's largest pose error (rad, or translation / ``length``).
+def verify_dyads(family, U, P, pitches, values, targets, length: float) -> np.ndarray:
+    """Drive m three-joint chains of ``family`` (R, P, C, H) through their joint values
+    with the closure engine (all in one bulk evaluation,
+    :func:`synthesis.verify.verify_frames`) and return each chain's largest pose error
+    (rad, or translation / ``length``).
 
-    chains : list of (types (3 letters), lines (3 Line), pitches (3), values (P, 3, 2):
-    angle (rad) and slide (length) of every joint at every position).
+    Parameters
+    ----------
+    family : str
+        The chains' three joint letters.
+    U, P : array_like, shape (3, m, 3)
+        Per joint the chains' unit axis directions and points in position 1.
+    pitches : array_like, shape (3,) or (m, 3)
+        Length / rad, read for H joints.
+    values : numpy.ndarray, shape (m, n, 3, 2)
+        Angle (rad) and slide (length) of every joint at each of the n positions.
+    targets : numpy.ndarray, shape (n, 4, 4)
+        The body's given poses.
+    length : float
+        Length the translation errors are divided by.
+
+    Returns
+    -------
+    numpy.ndarray, shape (m,)
     """
-    return verify_driven([(t, lines, vals, pitches) for t, lines, pitches, vals in chains],
+    F = line_frames(np.swapaxes(U, 0, 1).reshape(-1, 3), np.swapaxes(P, 0, 1).reshape(-1, 3),
+                    check=False)
+    return verify_frames(family, F.reshape(-1, 3, 4, 4), np.swapaxes(values, 0, 1), pitches,
                          targets, length)
 
 
@@ -567,9 +586,7 @@ def _table(family, N, T, reach, pitches, groups, entries, trs, rs, row_tr, row_o
     residual = np.full(n, np.nan)
     if verify and good.any():
         r = np.flatnonzero(good)
-        chains = [(family, [Line._exact(U[k, i], P[k, i]) for k in range(3)], pitches, vals[i])
-                  for i in r]
-        residual[r] = verify_dyads(chains, T, reach)
+        residual[r] = verify_dyads(family, U[:, r], P[:, r], pitches, vals[r], T, reach)
     cols["residual"] = residual
     cols["reason"] = reason.tolist()
     cols["variant"] = np.arange(1, n + 1)

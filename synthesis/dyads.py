@@ -430,8 +430,6 @@ def _inverse_family(fam, screws, choices):
                 if fam[k] != "P":
                     vals[:, p, k, 0] = out[f"q{k + 1}_pos{p + 1}"][reg]
                 vals[:, p, k, 1] = out[f"d{k + 1}_pos{p + 1}"][reg]
-        pitches = np.stack([out[f"j{k}_pitch"][reg] for k in (1, 2, 3)], 1).tolist()
-        chains = [(fam, [Line._exact(U[k][i], P[k][i]) for k in range(3)], pitches[i], vals[i])
-                  for i in range(len(reg))]
-        out["residual"][reg] = verify_dyads(chains, T, reach)
+        pitches = np.stack([out[f"j{k}_pitch"][reg] for k in (1, 2, 3)], 1).astype(float)
+        out["residual"][reg] = verify_dyads(fam, U, P, pitches, vals, T, reach)
     return pd.DataFrame({c: out[c] for c in cols})

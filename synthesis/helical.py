@@ -110,6 +110,8 @@ def helical_links(s12, s13, fixed_pitch: float = 0.0, moving_pitch: float = 0.0,
     g /= np.linalg.norm(g, axis=1, keepdims=True)
     g *= np.where(g[:, 2:3] < 0, -1.0, 1.0)
     g = g[~np.any(np.tril(np.abs(g @ g.T) > 1 - 1e-14, -1), 1)]   # starts met at one root
+    if not len(g):
+        return []
     A, rhs, w, th, ph, (e1, e2, f1, f2), ok = _equations(g, R, t, ("H", "H"), pn)
     links = [_link(task, g[k], np.linalg.lstsq(A[k], rhs[k], rcond=None)[0], kinds, pn,
                    (A[k], w[k], th[k], ph[k], e1[k], e2[k], f1[k], f2[k], ok[k]))

@@ -42,10 +42,9 @@ import numpy as np
 
 from .decompose import DEFAULT_AZIMUTHS, PITCH_OF_KIND, _grid_numbers, angle_grid, task_positions
 from .errors import SynthesisError
-from .screw import Line
 from .transition import Transitions, transition_joints
 from .validate import array
-from .verify import verify_driven
+from .verify import line_frames, pin_frames, verify_frames
 
 __all__ = ["hooke_arrangements", "hooke_family_dyads"]
 
@@ -198,8 +197,8 @@ def hooke_family_dyads(family: str, screws, *, azimuth=None, axis_azimuth=None, 
     V = len(j)
     # ---- the variants' joints and values, their verification
     geo = _variants(blocks, lk, l, si, tr, j, N)
-    chains = _chains(family, blocks, lk, l, geo, ph)
-    residual = verify_driven(chains, T, reach)
+    residual = verify_frames(family, _frames(geo), geo["vals"].swapaxes(0, 1),
+                             np.nan if ph is None else ph, T, reach)
     # ---- rows in the table's order
     fa = np.array(failed, dtype=object).reshape(-1, 5)
     kb = np.r_[lk["block"][l], fa[:, 0].astype(int)]
@@ -319,16 +318,14 @@ def _joint_columns(geo) -> list:
     return [X, Uj, M] if geo["name"] == "a" else [Uj, X, M]
 
 
-def _chains(family, blocks, lk, l, geo, ph) -> list:
-    """The variants as chains for :func:`synthesis.verify.verify_driven`."""
-    a, b, O, vals = geo["a"], geo["b"], geo["O"], geo["vals"]
-    lines = [[Line._exact(d, p) for d, p in zip(geo[u], geo[q])] for u, q in (("Xd", "Xp"),
-                                                                              ("Md", "M3"))]
-    if geo["name"] == "a":
-        joints = [[x, (a[v], b[v], O[v]), m] for v, (x, m) in enumerate(zip(*lines))]
-    else:
-        joints = [[(a[v], b[v], O[v]), x, m] for v, (x, m) in enumerate(zip(*lines))]
-    return [(family, js, vals[v], ph) for v, js in enumerate(joints)]
+def _frames(geo) -> np.ndarray:
+    """The variants' joint frames (V, 3, 4, 4) for :func:`synthesis.verify.verify_frames`
+    (ground joint first: the transition joint X and the U joint in the arrangement's
+    order, then the body joint M)."""
+    X = line_frames(geo["Xd"], geo["Xp"], check=False)
+    U = pin_frames(geo["a"], geo["b"], geo["O"])
+    M = line_frames(geo["Md"], geo["M3"], check=False)
+    return np.stack([X, U, M] if geo["name"] == "a" else [U, X, M], 1)
 
 
 def _columns(family, blocks, order, V, kb, kg, ks, reasons, geo, residual, tangle, root,

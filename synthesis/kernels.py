@@ -25,9 +25,13 @@ and no Python between the steps of a circle.
 
 Inlining (numba's ``inline="always"``) pays where a small function runs in a tight loop
 (the HH equations in the grid: 2× faster), but every inlined call site is a copy to
-compile: the Levenberg–Marquardt calls each residual from two places only, and calls
-the HH equations rather than inlining them (first compile of the HH and HS searches
-~35 s, measured).
+compile: the Levenberg–Marquardt calls each residual from two places only, and the HH
+residual, the HH equations inlined into it, is one compiled function it calls (half the
+time of calling the equations themselves, whose array arguments the residual then
+passed one by one; inlining the whole residual at both call sites saved another 10 %
+for 13 s more first compile, measured).  The HH equations keep their intermediates in
+local scalars, not scratch arrays (the compiler must take views of one scratch array
+for aliases of each other, and goes through memory: 10–15 % slower, measured).
 
 numba compiles them on first use (``cache=True``: once per installation, then loaded
 from the cache); :mod:`synthesis.helical` and :mod:`synthesis.spherical` import this
@@ -48,26 +52,24 @@ _inline = numba.njit(cache=True, nogil=True, error_model="numpy", inline="always
 
 # ------------------------------------------------------------------ small linear algebra
 @_inline
-def _cross3(a, b, out):
-    out[0] = a[1] * b[2] - a[2] * b[1]
-    out[1] = a[2] * b[0] - a[0] * b[2]
-    out[2] = a[0] * b[1] - a[1] * b[0]
+def _perp3t(u0, u1, u2):
+    """Two unit vectors completing unit u to a right-handed frame (as ``binary._perp``):
+    their six components."""
+    if abs(u0) < 0.9:
+        a0, a1, a2 = 1.0, 0.0, 0.0
+    else:
+        a0, a1, a2 = 0.0, 1.0, 0.0
+    d = a0 * u0 + a1 * u1 + a2 * u2
+    e0, e1, e2 = a0 - d * u0, a1 - d * u1, a2 - d * u2
+    n = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    e0, e1, e2 = e0 / n, e1 / n, e2 / n
+    return e0, e1, e2, u1 * e2 - u2 * e1, u2 * e0 - u0 * e2, u0 * e1 - u1 * e0
 
 
 @_inline
 def _perp3(u, e1, e2):
-    """Two unit vectors completing unit u to a right-handed frame (as ``binary._perp``)."""
-    if abs(u[0]) < 0.9:
-        a0, a1, a2 = 1.0, 0.0, 0.0
-    else:
-        a0, a1, a2 = 0.0, 1.0, 0.0
-    d = a0 * u[0] + a1 * u[1] + a2 * u[2]
-    e1[0], e1[1], e1[2] = a0 - d * u[0], a1 - d * u[1], a2 - d * u[2]
-    n = math.sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2])
-    e1[0] /= n
-    e1[1] /= n
-    e1[2] /= n
-    _cross3(u, e1, e2)
+    """:func:`_perp3t` of u (3,) into e1, e2 (3,)."""
+    e1[0], e1[1], e1[2], e2[0], e2[1], e2[2] = _perp3t(u[0], u[1], u[2])
 
 
 @_inline
@@ -77,36 +79,44 @@ def _rot3(u, ang, out):
 
 
 @_inline
-def _rot3cs(u, c, s, out):
-    """Rotation about unit u by the angle of cosine c and sine s."""
+def _rot3cst(u0, u1, u2, c, s):
+    """Rotation about unit u by the angle of cosine c and sine s: its nine entries, row by
+    row."""
     C = 1.0 - c
-    out[0, 0] = 1.0 + C * (-u[2] * u[2] - u[1] * u[1])
-    out[0, 1] = -s * u[2] + C * u[0] * u[1]
-    out[0, 2] = s * u[1] + C * u[0] * u[2]
-    out[1, 0] = s * u[2] + C * u[0] * u[1]
-    out[1, 1] = 1.0 + C * (-u[2] * u[2] - u[0] * u[0])
-    out[1, 2] = -s * u[0] + C * u[1] * u[2]
-    out[2, 0] = -s * u[1] + C * u[0] * u[2]
-    out[2, 1] = s * u[0] + C * u[1] * u[2]
-    out[2, 2] = 1.0 + C * (-u[1] * u[1] - u[0] * u[0])
+    return (1.0 + C * (-u2 * u2 - u1 * u1), -s * u2 + C * u0 * u1, s * u1 + C * u0 * u2,
+            s * u2 + C * u0 * u1, 1.0 + C * (-u2 * u2 - u0 * u0), -s * u0 + C * u1 * u2,
+            -s * u1 + C * u0 * u2, s * u0 + C * u1 * u2, 1.0 + C * (-u1 * u1 - u0 * u0))
 
 
 @_inline
-def _signed_angle3(a, b, u, out):
+def _rot3cs(u, c, s, out):
+    """:func:`_rot3cst` of u (3,) into out (3, 3)."""
+    (out[0, 0], out[0, 1], out[0, 2], out[1, 0], out[1, 1], out[1, 2], out[2, 0], out[2, 1],
+     out[2, 2]) = _rot3cst(u[0], u[1], u[2], c, s)
+
+
+@_inline
+def _signed_angle3t(a0, a1, a2, b0, b1, b2, u0, u1, u2):
     """Angle about u from a to b (their components ⊥ u), as ``binary._signed_angle``, and
-    that rotation about u in out (3, 3), its cosine and sine taken from the two components
-    (no trigonometric call; the identity where a or b is parallel to u)."""
-    cx = a[1] * b[2] - a[2] * b[1]
-    cy = a[2] * b[0] - a[0] * b[2]
-    cz = a[0] * b[1] - a[1] * b[0]
-    ab = a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
-    au = a[0] * u[0] + a[1] * u[1] + a[2] * u[2]
-    bu = b[0] * u[0] + b[1] * u[1] + b[2] * u[2]
-    y, x = u[0] * cx + u[1] * cy + u[2] * cz, ab - au * bu
+    that rotation about u (:func:`_rot3cst`), its cosine and sine taken from the two
+    components (no trigonometric call; the identity where a or b is parallel to u)."""
+    cx = a1 * b2 - a2 * b1
+    cy = a2 * b0 - a0 * b2
+    cz = a0 * b1 - a1 * b0
+    ab = a0 * b0 + a1 * b1 + a2 * b2
+    au = a0 * u0 + a1 * u1 + a2 * u2
+    bu = b0 * u0 + b1 * u1 + b2 * u2
+    y, x = u0 * cx + u1 * cy + u2 * cz, ab - au * bu
     r = math.sqrt(x * x + y * y)
     c, s = (x / r, y / r) if r > 0.0 else (1.0, 0.0)
-    _rot3cs(u, c, s, out)
-    return math.atan2(y, x)
+    return math.atan2(y, x), _rot3cst(u0, u1, u2, c, s)
+
+
+@_inline
+def _mat_vec(M, x0, x1, x2):
+    """M x for a 3x3 matrix M given as its nine entries, row by row."""
+    return (M[0] * x0 + M[1] * x1 + M[2] * x2, M[3] * x0 + M[4] * x1 + M[5] * x2,
+            M[6] * x0 + M[7] * x1 + M[8] * x2)
 
 
 @_inline
@@ -140,7 +150,7 @@ def _forward(L, v, y):
         y[i] = s / L[i, i]
 
 
-@_kernel
+@_inline
 def _spd_solve(M, v, x):
     """x = M⁻¹ v for a small symmetric positive definite M (Cholesky, M overwritten by its
     factor, v kept).  False (x zero) where a pivot is not positive or not finite."""
@@ -190,73 +200,71 @@ def _solve(M, v, x):
 def _scratch():
     """Scratch arrays of the residuals, allocated once per search (an allocation, or a
     tuple of arrays passed down, costs more than a residual; so they are passed one by
-    one): vectors V (16, 3), 3x3 matrices Ms (3, 3, 3), the HH equations A6 (6, 4), rhs6
-    (6,) and their normal equations M (4, 4), b, x (4,); the HS equations' A9 (9, 5) (for
-    :func:`hs_systems`' layout; the search builds it transposed in Q), rhs9 (9,) and
-    Gram–Schmidt Q (5, 9)."""
-    return (np.zeros((16, 3)), np.zeros((3, 3, 3)), np.zeros((6, 4)), np.zeros(6),
+    one): the HS residual's vectors V (7, 3) and 3x3 matrices Ms (3, 3, 3), the HH
+    equations A6 (6, 4), rhs6 (6,) and their normal equations M (4, 4), b, x (4,); the HS
+    equations' A9 (9, 5) (for :func:`hs_systems`' layout; the search builds it transposed
+    in Q), rhs9 (9,) and Gram–Schmidt Q (5, 9)."""
+    return (np.zeros((7, 3)), np.zeros((3, 3, 3)), np.zeros((6, 4)), np.zeros(6),
             np.zeros((4, 4)), np.zeros(4), np.zeros(4), np.zeros((9, 5)), np.zeros(9),
             np.zeros((5, 9)))
 
 
 # ------------------------------------------------------------------ HH, RH, HR links
-def _hh_equations(g, R, t, pn, A, rhs, w, th, ph, V, Ms):
-    """A helical link's translation equations for the fixed-axis direction g (3,) through
-    the rotations R (2, 3, 3) and translations t (2, 3) of positions 2, 3, pitches pn (2,)
-    (normalised length / rad): fills A (6, 4), rhs (6,), the moving direction w (3,) and
-    the joint rotations θ (2,), φ (2,), as ``helical._equations`` (V (10, 3), Ms (3, 3, 3)
-    scratch).  Returns (|w| before normalising, |g × w|): the direction pair is valid
-    where both exceed 1e-9."""
-    a0, a1, v, e1, e2, f1, f2, Rw, Mv, q = V[0], V[1], V[2], V[3], V[4], V[5], V[6], V[7], \
-        V[8], V[9]
-    Gm, Wm, M = Ms[0], Ms[1], Ms[2]
-    for i in range(3):
-        a0[i] = (R[0, 0, i] * g[0] + R[0, 1, i] * g[1] + R[0, 2, i] * g[2]) - g[i]
-        a1[i] = (R[1, 0, i] * g[0] + R[1, 1, i] * g[1] + R[1, 2, i] * g[2]) - g[i]
-    _cross3(a0, a1, w)
-    wn = math.sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2])
+@_inline
+def _hh_equations(g0, g1, g2, R, t, pn, A, rhs):
+    """A helical link's translation equations for the fixed-axis direction g = (g0, g1, g2)
+    through the rotations R (2, 3, 3) and translations t (2, 3) of positions 2, 3,
+    pitches pn (2,) (normalised length / rad): fills A (6, 4), rhs (6,) as
+    ``helical._equations``, the moving direction w, the joint rotations θ_j, φ_j and
+    their rotation matrices local scalars (see the module notes).  Returns (|w| before
+    normalising, |g × w|): the direction pair is valid where both exceed 1e-9."""
+    a00 = (R[0, 0, 0] * g0 + R[0, 1, 0] * g1 + R[0, 2, 0] * g2) - g0       # (R_j − I)ᵀ g
+    a01 = (R[0, 0, 1] * g0 + R[0, 1, 1] * g1 + R[0, 2, 1] * g2) - g1
+    a02 = (R[0, 0, 2] * g0 + R[0, 1, 2] * g1 + R[0, 2, 2] * g2) - g2
+    a10 = (R[1, 0, 0] * g0 + R[1, 1, 0] * g1 + R[1, 2, 0] * g2) - g0
+    a11 = (R[1, 0, 1] * g0 + R[1, 1, 1] * g1 + R[1, 2, 1] * g2) - g1
+    a12 = (R[1, 0, 2] * g0 + R[1, 1, 2] * g1 + R[1, 2, 2] * g2) - g2
+    w0, w1, w2 = a01 * a12 - a02 * a11, a02 * a10 - a00 * a12, a00 * a11 - a01 * a10
+    wn = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
     if wn > 1e-9:
-        w[0] /= wn
-        w[1] /= wn
-        w[2] /= wn
+        w0, w1, w2 = w0 / wn, w1 / wn, w2 / wn
     else:
-        w[0], w[1], w[2] = 0.0, 0.0, 1.0
-    gw = g[0] * w[0] + g[1] * w[1] + g[2] * w[2]
-    for i in range(3):
-        v[i] = g[i] - gw * w[i]
-    _perp3(g, e1, e2)
-    _perp3(w, f1, f2)
+        w0, w1, w2 = 0.0, 0.0, 1.0
+    gw = g0 * w0 + g1 * w1 + g2 * w2
+    v0, v1, v2 = g0 - gw * w0, g1 - gw * w1, g2 - gw * w2
+    e10, e11, e12, e20, e21, e22 = _perp3t(g0, g1, g2)
+    f10, f11, f12, f20, f21, f22 = _perp3t(w0, w1, w2)
     for m in range(2):
-        for i in range(3):
-            Rw[i] = R[m, i, 0] * w[0] + R[m, i, 1] * w[1] + R[m, i, 2] * w[2]
-        th[m] = _signed_angle3(w, Rw, g, Gm)
-        for i in range(3):
-            for j in range(3):
-                M[i, j] = Gm[0, i] * R[m, 0, j] + Gm[1, i] * R[m, 1, j] + Gm[2, i] * R[m, 2, j]
-        for i in range(3):
-            Mv[i] = M[i, 0] * v[0] + M[i, 1] * v[1] + M[i, 2] * v[2]
-        ph[m] = _signed_angle3(v, Mv, w, Wm)
-        for i in range(3):
-            A[3 * m + i, 0] = e1[i] - (Gm[i, 0] * e1[0] + Gm[i, 1] * e1[1] + Gm[i, 2] * e1[2])
-            A[3 * m + i, 1] = e2[i] - (Gm[i, 0] * e2[0] + Gm[i, 1] * e2[1] + Gm[i, 2] * e2[2])
-        for c in range(2):
-            f = f1 if c == 0 else f2
-            for i in range(3):
-                q[i] = f[i] - (Wm[i, 0] * f[0] + Wm[i, 1] * f[1] + Wm[i, 2] * f[2])
-            for i in range(3):
-                A[3 * m + i, 2 + c] = Gm[i, 0] * q[0] + Gm[i, 1] * q[1] + Gm[i, 2] * q[2]
-        for i in range(3):
-            Gw = Gm[i, 0] * w[0] + Gm[i, 1] * w[1] + Gm[i, 2] * w[2]
-            rhs[3 * m + i] = t[m, i] - pn[0] * th[m] * g[i] - pn[1] * ph[m] * Gw
-    _cross3(g, w, q)
-    return wn, math.sqrt(q[0] * q[0] + q[1] * q[1] + q[2] * q[2])
-
-
-#: compiled twice from one source: inlined into the grid, where it is nearly all the work
-#: (2× faster, measured), and called from the Levenberg–Marquardt, whose compile time an
-#: inlined copy at each of its call sites would triple (for no measured gain)
-_hh_equations_inlined = _inline(_hh_equations)
-_hh_equations = _kernel(_hh_equations)
+        Rm = R[m]
+        x0, x1, x2 = _mat_vec((Rm[0, 0], Rm[0, 1], Rm[0, 2], Rm[1, 0], Rm[1, 1], Rm[1, 2],
+                               Rm[2, 0], Rm[2, 1], Rm[2, 2]), w0, w1, w2)             # R_j w
+        th, G = _signed_angle3t(w0, w1, w2, x0, x1, x2, g0, g1, g2)
+        M = (G[0] * Rm[0, 0] + G[3] * Rm[1, 0] + G[6] * Rm[2, 0],           # Gᵀ R_j
+             G[0] * Rm[0, 1] + G[3] * Rm[1, 1] + G[6] * Rm[2, 1],
+             G[0] * Rm[0, 2] + G[3] * Rm[1, 2] + G[6] * Rm[2, 2],
+             G[1] * Rm[0, 0] + G[4] * Rm[1, 0] + G[7] * Rm[2, 0],
+             G[1] * Rm[0, 1] + G[4] * Rm[1, 1] + G[7] * Rm[2, 1],
+             G[1] * Rm[0, 2] + G[4] * Rm[1, 2] + G[7] * Rm[2, 2],
+             G[2] * Rm[0, 0] + G[5] * Rm[1, 0] + G[8] * Rm[2, 0],
+             G[2] * Rm[0, 1] + G[5] * Rm[1, 1] + G[8] * Rm[2, 1],
+             G[2] * Rm[0, 2] + G[5] * Rm[1, 2] + G[8] * Rm[2, 2])
+        x0, x1, x2 = _mat_vec(M, v0, v1, v2)
+        ph, W = _signed_angle3t(v0, v1, v2, x0, x1, x2, w0, w1, w2)
+        r = 3 * m
+        x0, x1, x2 = _mat_vec(G, e10, e11, e12)
+        A[r, 0], A[r + 1, 0], A[r + 2, 0] = e10 - x0, e11 - x1, e12 - x2
+        x0, x1, x2 = _mat_vec(G, e20, e21, e22)
+        A[r, 1], A[r + 1, 1], A[r + 2, 1] = e20 - x0, e21 - x1, e22 - x2
+        x0, x1, x2 = _mat_vec(W, f10, f11, f12)
+        A[r, 2], A[r + 1, 2], A[r + 2, 2] = _mat_vec(G, f10 - x0, f11 - x1, f12 - x2)
+        x0, x1, x2 = _mat_vec(W, f20, f21, f22)
+        A[r, 3], A[r + 1, 3], A[r + 2, 3] = _mat_vec(G, f20 - x0, f21 - x1, f22 - x2)
+        x0, x1, x2 = _mat_vec(G, w0, w1, w2)
+        rhs[r] = t[m, 0] - pn[0] * th * g0 - pn[1] * ph * x0
+        rhs[r + 1] = t[m, 1] - pn[0] * th * g1 - pn[1] * ph * x1
+        rhs[r + 2] = t[m, 2] - pn[0] * th * g2 - pn[1] * ph * x2
+    q0, q1, q2 = g1 * w2 - g2 * w1, g2 * w0 - g0 * w2, g0 * w1 - g1 * w0
+    return wn, math.sqrt(q0 * q0 + q1 * q1 + q2 * q2)
 
 
 @_inline
@@ -277,19 +285,19 @@ def _normal6(A, rhs, M, b):
 
 
 @_inline
-def _hh_normal(g, R, t, pn, V, Ms, A, rhs, M, b):
+def _hh_normal(g0, g1, g2, R, t, pn, A, rhs, M, b):
     """The six equations for direction g (A (6, 4), rhs (6,)) and their normal equations
     (:func:`_normal6`) (scratch as :func:`_scratch`); returns the validity of g."""
-    wn, sgw = _hh_equations(g, R, t, pn, A, rhs, V[10], V[11], V[12], V, Ms)
+    wn, sgw = _hh_equations(g0, g1, g2, R, t, pn, A, rhs)
     _normal6(A, rhs, M, b)
     return wn > 1e-9 and sgw > 1e-9
 
 
 @_inline
-def _hh_misfit(g, R, t, pn, f, V, Ms, A, rhs, M, b, x):
+def _hh_misfit(g0, g1, g2, R, t, pn, f, A, rhs, M, b, x):
     """The six equations' least-squares misfit vector f (6,) for direction g, the points
     solved by normal equations; returns the validity of g."""
-    ok = _hh_normal(g, R, t, pn, V, Ms, A, rhs, M, b)
+    ok = _hh_normal(g0, g1, g2, R, t, pn, A, rhs, M, b)
     _spd_solve(M, b, x)
     for i in range(4):
         if not math.isfinite(x[i]):
@@ -306,9 +314,9 @@ def hh_grid(G, R, t, pn):
     inf where the direction pair is not valid."""
     n = G.shape[0]
     out = np.empty(n)
-    V, Ms, A, rhs, M, b, _, _, _, _ = _scratch()
+    _, _, A, rhs, M, b, _, _, _, _ = _scratch()
     for k in range(n):
-        wn, sgw = _hh_equations_inlined(G[k], R, t, pn, A, rhs, V[10], V[11], V[12], V, Ms)
+        wn, sgw = _hh_equations(G[k, 0], G[k, 1], G[k, 2], R, t, pn, A, rhs)
         if wn > 1e-9 and sgw > 1e-9:
             _normal6(A, rhs, M, b)
             rr = 0.0
@@ -320,17 +328,15 @@ def hh_grid(G, R, t, pn):
     return out
 
 
-@_inline
-def _hh_residual(z, base, R, t, pn, f, V, Ms, A, rhs, M, b, x):
+@_kernel
+def _hh_residual(z, base, R, t, pn, f, A, rhs, M, b, x):
     """Residual f (6,) at tangent coordinates z (2,) about base = (g0, e1, e2) (3, 3):
-    the direction g = normalise(g0 + z₁ e1 + z₂ e2)."""
-    g = V[13]
-    for i in range(3):
-        g[i] = base[0, i] + z[0] * base[1, i] + z[1] * base[2, i]
-    n = math.sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2])
-    for i in range(3):
-        g[i] /= n
-    _hh_misfit(g, R, t, pn, f, V, Ms, A, rhs, M, b, x)
+    the direction g = normalise(g0 + z₁ e1 + z₂ e2) (scratch as :func:`_scratch`)."""
+    g0 = base[0, 0] + z[0] * base[1, 0] + z[1] * base[2, 0]
+    g1 = base[0, 1] + z[0] * base[1, 1] + z[1] * base[2, 1]
+    g2 = base[0, 2] + z[0] * base[1, 2] + z[1] * base[2, 2]
+    n = math.sqrt(g0 * g0 + g1 * g1 + g2 * g2)
+    _hh_misfit(g0 / n, g1 / n, g2 / n, R, t, pn, f, A, rhs, M, b, x)
 
 
 # ------------------------------------------------------------------ HS links
@@ -854,7 +860,7 @@ def _cost_hh(z, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, rhs9, Q, W):
     """A system's residual f at z, P its parameters: the HH misfit about the base
     P = (g0, e1, e2) with pitches v (scratch as :func:`_scratch`, W (9, 9)).  Returns
     (|f|², inf where not finite; True: the Jacobian is then tried)."""
-    _hh_residual(z, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x)
+    _hh_residual(z, P, R, t, v, f, A6, rhs6, M, b, x)
     cost = 0.0
     for r in range(f.shape[0]):
         cost += f[r] * f[r]
@@ -873,12 +879,11 @@ def _cost_hs(z, P, R, t, v, f, V, Ms, A6, rhs6, M, b, x, rhs9, Q, W):
 def _jac_hh(z, f0, P, R, t, v, h, J, fp, zt, V, Ms, A6, rhs6, M, b, x, rhs9, Q, W, X):
     """Jacobian J (6, 2) of the HH misfit at z (f0 its residual there) by forward
     differences (as MINPACK's lmdif; measured: the same links as central ones on the
-    reference tasks, at half the residuals); False where not finite.  The HH residual is
-    called from one place here (each call site is a copy of it, inlined)."""
+    reference tasks, at half the residuals); False where not finite."""
     for i in range(z.shape[0]):
         zt[:] = z
         zt[i] = z[i] + h
-        _hh_residual(zt, P, R, t, v, fp, V, Ms, A6, rhs6, M, b, x)
+        _hh_residual(zt, P, R, t, v, fp, A6, rhs6, M, b, x)
         for r in range(fp.shape[0]):
             J[r, i] = (fp[r] - f0[r]) / h
             if not math.isfinite(J[r, i]):

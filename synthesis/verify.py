@@ -25,7 +25,8 @@ from .validate import array, line, number
 from .validate import transform as _transform
 
 __all__ = ["in_chunks", "chain_mechanism", "verify_chain", "verify_chains", "verify_points", "pose_error",
-           "pose_errors", "verify_links", "verify_open_chains", "verify_driven"]
+           "pose_errors", "verify_links", "verify_open_chains", "verify_driven", "verify_frames",
+           "line_frames", "pin_frames"]
 
 
 #: chains per engine mechanism in the verifications that build one (measured: a few dozen
@@ -56,23 +57,39 @@ def _frame_of(line: Line) -> np.ndarray:
 
 
 def _frames_of(lines, check: bool = True) -> np.ndarray:
-    """Joint frames (N, 4, 4) with Z along each line at its point, in one vectorised pass
-    (rotations exact by construction; ``check=False`` leaves out their check, for callers
-    that check the frames' entries themselves)."""
+    """Joint frames (N, 4, 4) with Z along each line at its point (:func:`line_frames` of
+    the Lines' directions and points)."""
     # (concatenate: a third faster than np.array on thousands of 3-vectors)
-    z = np.concatenate([ln.direction for ln in lines]).reshape(-1, 3)
+    return line_frames(np.concatenate([ln.direction for ln in lines]).reshape(-1, 3),
+                       np.concatenate([ln.point for ln in lines]).reshape(-1, 3), check)
+
+
+def line_frames(directions, points, check: bool = True) -> np.ndarray:
+    """Joint frames (N, 4, 4) with Z along each unit direction (N, 3) at its point (N, 3),
+    in one vectorised pass (rotations exact by construction; ``check=False`` leaves out
+    their check, for callers that check the frames' entries themselves)."""
+    z = directions
     a = np.where((np.abs(z[:, 0]) < 0.9)[:, None], [1.0, 0, 0], [0, 1.0, 0])
     x = a - np.sum(a * z, 1, keepdims=True) * z
     x /= np.linalg.norm(x, axis=1, keepdims=True)
-    p = np.concatenate([ln.point for ln in lines]).reshape(-1, 3)
-    return (transform if check else _exact_transform)(np.stack([x, cross(z, x), z], -1), p)
+    return (transform if check else _exact_transform)(np.stack([x, cross(z, x), z], -1),
+                                                      points)
+
+
+def pin_frames(a, b, O) -> np.ndarray:
+    """Frames (N, 4, 4) of U joints from their pins and centres (N, 3): Z along ``a`` (the
+    pin on the link before the joint), X along ``b`` (the pin on the link after it), at
+    ``O``."""
+    F = np.zeros((len(a), 4, 4))
+    F[:, :3, 0], F[:, :3, 1], F[:, :3, 2], F[:, :3, 3] = b, np.cross(a, b), a, O
+    F[:, 3, 3] = 1.0
+    return F
 
 
 def _joint_frames(types, joints) -> np.ndarray:
     """Joint frames (V, k, 4, 4) of V chains of k joints: ``types`` V strings of k letters,
     ``joints`` per chain k joints, a Line (Z along it at its point) or, for a U joint, its
-    pins and centre ``(a, b, O)`` (Z along ``a``, the pin on the link before it, X along
-    ``b``)."""
+    pins and centre ``(a, b, O)`` (:func:`pin_frames`)."""
     flat = [j for js in joints for j in js]
     letters = "".join(types)
     pins = [i for i, t in enumerate(letters) if t == "U" and not isinstance(flat[i], Line)] \
@@ -84,9 +101,7 @@ def _joint_frames(types, joints) -> np.ndarray:
     F = np.zeros((len(flat), 4, 4))
     if lines.any():
         F[lines] = _frames_of([j for j, ln in zip(flat, lines) if ln], check=False)
-    a, b, O = (np.array(x, float) for x in zip(*[flat[i] for i in pins]))
-    F[pins, :3, 0], F[pins, :3, 1], F[pins, :3, 2], F[pins, :3, 3] = b, np.cross(a, b), a, O
-    F[pins, 3, 3] = 1.0
+    F[pins] = pin_frames(*(np.array(x, float) for x in zip(*[flat[i] for i in pins])))
     return F.reshape(len(joints), -1, 4, 4)
 
 
@@ -422,10 +437,41 @@ def verify_driven(chains, targets, length: float) -> np.ndarray:
     if not chains:
         return np.zeros(0)
     types = [c[0] for c in chains]
-    vals = _stacked([c[2] for c in chains])                             # (P, V, k, 2)
-    slide = np.frombuffer("".join(types).encode(), "S1").reshape(len(types), -1) == b"P"
-    q = vals.copy()
-    q[..., 0] = np.where(slide, vals[..., 1], vals[..., 0])             # P: s is coordinate 0
     h = np.array([c[3] for c in chains], float)
-    poses = _drive(types, [c[1] for c in chains], q, h[:, None] if h.ndim == 1 else h)
+    return verify_frames(types, _joint_frames(types, [c[1] for c in chains]),
+                         _stacked([c[2] for c in chains]), h[:, None] if h.ndim == 1 else h,
+                         targets, length)
+
+
+def verify_frames(types, frames, values, pitches, targets, length: float) -> np.ndarray:
+    """:func:`verify_driven` of V chains given as arrays: their joint frames built by the
+    caller (:func:`line_frames`, :func:`pin_frames`), no Line or tuple per joint.
+
+    Parameters
+    ----------
+    types : str or list of str
+        k letters of R, P, C, H, U (ground joint first): one string for every chain, or
+        one per chain.
+    frames : numpy.ndarray, shape (V, k, 4, 4)
+        The joints' frames (exact rotations: not checked), as
+        :func:`closure.open_chain_poses` takes them.
+    values : numpy.ndarray, shape (P, V, k, 2)
+        As :func:`verify_driven`'s values, per position and chain.
+    pitches : array_like, broadcastable to (V, k)
+        Length / rad, read for H joints only.
+    targets, length
+        As :func:`verify_driven`.
+
+    Returns
+    -------
+    numpy.ndarray, shape (V,)
+        Each chain's largest pose error over the positions (rad, or translation / length).
+    """
+    if not len(frames):
+        return np.zeros(0)
+    letters = [types] if isinstance(types, str) else types
+    slide = np.frombuffer("".join(letters).encode(), "S1").reshape(len(letters), -1) == b"P"
+    q = values.copy()
+    q[..., 0] = np.where(slide, values[..., 1], values[..., 0])         # P: s is coordinate 0
+    poses = open_chain_poses(types, frames, q, pitches, validate=False)
     return _worst(poses[:, :, -1], targets, length)

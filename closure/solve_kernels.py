@@ -482,6 +482,19 @@ def _scaled_residual(r, scale, out):
 
 
 @numba.njit(**_JIT)
+def _twist_row(PF, o_rm, S, c, s):
+    """Entry ``s`` of the dimensionless twist about the centre of column ``c`` of the
+    twists ``S``: ``Σ_t row_map[s, t] S[c, t]`` for the row map at ``PF[o_rm]``, which maps
+    ``(v, ω)`` to ``((v + ω × c) / L, ω)`` (:class:`closure.state.Plan`): its entries known
+    to be zero or one are not multiplied out (the same values)."""
+    if s >= 3:
+        return S[c, s]
+    o = o_rm + 6 * s
+    a, b = (4, 5) if s == 0 else ((3, 5) if s == 1 else (3, 4))
+    return S[c, s] * PF[o + s] + S[c, a] * PF[o + a] + S[c, b] * PF[o + b]
+
+
+@numba.njit(**_JIT)
 def _scaled_jacobian(PI, PF, S, cols, J):
     """Dimensionless loop Jacobian ``J`` (6·nloops, len(cols)) of columns ``cols``: the
     twists about the centre with translations / scale (the row map), times the loop
@@ -490,9 +503,7 @@ def _scaled_jacobian(PI, PF, S, cols, J):
     for k in range(cols.shape[0]):
         c = cols[k]
         for s in range(6):
-            v = 0.0
-            for t in range(6):
-                v += S[c, t] * PF[o_rm + 6 * s + t]
+            v = _twist_row(PF, o_rm, S, c, s)
             for lp in range(nc):
                 J[6 * lp + s, k] = PF[o_lp + nv * lp + c] * v
 
@@ -602,6 +613,9 @@ def _factor(J, rank, G, L, Linv, Ginv):
     for i in range(k):
         for j in range(i):
             G[j, i] = G[i, j]
+    jj = 0.0                                            # ‖J‖²_F = tr G
+    for i in range(k):
+        jj += G[i, i]
     if not _cholesky(G, L, k):                          # G = L Lᵀ
         return False, 0.0
     tr_inv = 0.0
@@ -614,10 +628,6 @@ def _factor(J, rank, G, L, Linv, Ginv):
             Linv[i, j] = s / L[i, i]
         for i in range(j, k):
             tr_inv += Linv[i, j] * Linv[i, j]
-    jj = 0.0
-    for i in range(m):
-        for j in range(n):
-            jj += J[i, j] * J[i, j]
     cest = math.sqrt(jj * tr_inv)
     if not cest <= FAST_COND:
         return False, 0.0
@@ -788,7 +798,7 @@ def _lsq_work(m, n, nr):
 
 # the pattern's header: sizes, then the offsets of its tables
 (P_N, P_M, P_K, P_WIDE, P_NNZ, P_ENV, P_CPTR, P_CLP, P_RPTR, P_RCOL, P_RPOS, P_F, P_EPTR,
- P_LAST, P_RM, P_DENSE, P_HEAD) = range(17)
+ P_LAST, P_DENSE, P_HEAD) = range(16)
 
 
 @numba.njit(**_JIT)
@@ -799,8 +809,8 @@ def _pattern(PI, PF, cols):
     ``clp``; entry e of column k is ``Jv[6 e : 6 e + 6]``), per loop its columns in order
     and their entries (``rptr``, ``rcol``, ``rpos``), per Gram row the first column of its
     envelope ``f``, its offset ``eptr`` and per Gram column the last row whose envelope
-    reaches it ``last``, and the nonzero entries of the row map (per row: count, columns)."""
-    nc, nv, o_lp, o_rm = PI[H_NC], PI[H_NV], PI[F_LOOP], PI[F_ROWMAP]
+    reaches it ``last``."""
+    nc, nv, o_lp = PI[H_NC], PI[H_NV], PI[F_LOOP]
     n = cols.shape[0]
     m = 6 * nc
     nnz = 0
@@ -818,11 +828,10 @@ def _pattern(PI, PF, cols):
     o_f = o_rpos + nnz
     o_eptr = o_f + kk
     o_last = o_eptr + kk + 1
-    o_rm_ = o_last + kk
-    P = np.zeros(o_rm_ + 42, dtype=np.int64)
+    P = np.zeros(o_last + kk, dtype=np.int64)
     P[P_N], P[P_M], P[P_K], P[P_WIDE], P[P_NNZ] = n, m, kk, 1 if wide else 0, nnz
     P[P_CPTR], P[P_CLP], P[P_RPTR], P[P_RCOL], P[P_RPOS] = o_cptr, o_clp, o_rptr, o_rcol, o_rpos
-    P[P_F], P[P_EPTR], P[P_LAST], P[P_RM] = o_f, o_eptr, o_last, o_rm_
+    P[P_F], P[P_EPTR], P[P_LAST] = o_f, o_eptr, o_last
     e = 0
     for k in range(n):                              # columns: their loops
         P[o_cptr + k] = e
@@ -875,13 +884,6 @@ def _pattern(PI, PF, cols):
         for j in range(P[o_f + i], i):
             if P[o_last + j] < i:
                 P[o_last + j] = i
-    for s in range(6):                              # the row map's nonzero entries
-        c = 0
-        for t in range(6):
-            if PF[o_rm + 6 * s + t] != 0.0:
-                P[o_rm_ + 7 * s + 1 + c] = t
-                c += 1
-        P[o_rm_ + 7 * s] = c
     return P
 
 
@@ -901,19 +903,16 @@ def _sp_work(P, nr):
 @numba.njit(**_JIT)
 def _sp_jacobian(PI, PF, S, cols, P, Jv):
     """The nonzero blocks ``Jv`` of the dimensionless loop Jacobian of columns ``cols``
-    (:func:`_scaled_jacobian`'s values, the row map's zero entries skipped)."""
-    nv, o_rmf, o_lp = PI[H_NV], PI[F_ROWMAP], PI[F_LOOP]
-    o_cptr, o_clp, o_rm = P[P_CPTR], P[P_CLP], P[P_RM]
+    (:func:`_scaled_jacobian`'s values)."""
+    nv, o_rm, o_lp = PI[H_NV], PI[F_ROWMAP], PI[F_LOOP]
+    o_cptr, o_clp = P[P_CPTR], P[P_CLP]
     for k in range(P[P_N]):
         e0, e1 = P[o_cptr + k], P[o_cptr + k + 1]
         if e0 == e1:
             continue
         c = cols[k]
         for s in range(6):
-            v = 0.0
-            for x in range(P[o_rm + 7 * s]):
-                t = P[o_rm + 7 * s + 1 + x]
-                v += S[c, t] * PF[o_rmf + 6 * s + t]
+            v = _twist_row(PF, o_rm, S, c, s)
             for e in range(e0, e1):
                 Jv[6 * e + s] = PF[o_lp + nv * P[o_clp + e] + c] * v
 
@@ -978,6 +977,9 @@ def _sp_factor(P, Jv, L, Z):
                     for t in range(6):
                         s += Jv[ea + t] * Jv[eb + t]
                     L[base + b] = s
+    jj = 0.0                                        # ‖J‖²_F = tr G (the dense sum)
+    for i in range(kk):
+        jj += L[P[o_e + i] - P[o_f + i] + i]
     for j in range(kk):                             # G = L Lᵀ, column by column
         fj = P[o_f + j]
         dj = P[o_e + j] - fj
@@ -1028,12 +1030,6 @@ def _sp_factor(P, Jv, L, Z):
         zii = (1.0 / lii - s) / lii
         Z[P[o_e + i] - fi + i] = zii
         tr_inv += zii
-    jj = 0.0                                        # ‖J‖²_F, rows in turn as the dense sum
-    for lp in range(nc):
-        for s_ in range(6):
-            for x in range(P[o_rptr + lp], P[o_rptr + lp + 1]):
-                v = Jv[6 * P[o_rpos + x] + s_]
-                jj += v * v
     cest = math.sqrt(jj * tr_inv)
     if not cest <= FAST_COND:
         return False, 0.0
@@ -1163,22 +1159,6 @@ def _sp_inv_smin(P, fast, inv0, above, W):
 # loses to its indirection: the dense kernels above then serve, on the dense Jacobian, with
 # the solves taken one right-hand side at a time (the same values as :func:`_lsq_solve`).
 @numba.njit(**_JIT)
-def _dn_jacobian(PI, PF, S, cols, P, J):
-    """The dense Jacobian ``J`` of :func:`_scaled_jacobian` (its values: the row map's
-    zero entries skipped, the loops' zero coefficients written as products)."""
-    nc, nv, o_rmf, o_lp, o_rm = PI[H_NC], PI[H_NV], PI[F_ROWMAP], PI[F_LOOP], P[P_RM]
-    for k in range(cols.shape[0]):
-        c = cols[k]
-        for s in range(6):
-            v = 0.0
-            for x in range(P[o_rm + 7 * s]):
-                t = P[o_rm + 7 * s + 1 + x]
-                v += S[c, t] * PF[o_rmf + 6 * s + t]
-            for lp in range(nc):
-                J[6 * lp + s, k] = PF[o_lp + nv * lp + c] * v
-
-
-@numba.njit(**_JIT)
 def _dn_solve(J, fast, Wd, R, X, c):
     """Column ``c`` of :func:`_lsq_solve` with the factors ``Wd`` of :func:`_lsq`."""
     m, n = J.shape
@@ -1240,7 +1220,7 @@ def _dn_solve(J, fast, Wd, R, X, c):
 def _ls_jacobian(PI, PF, S, cols, P, W):
     """The Jacobian of columns ``cols`` at twists ``S`` into ``W``: dense or blocks."""
     if P[P_DENSE]:
-        _dn_jacobian(PI, PF, S, cols, P, W[5])
+        _scaled_jacobian(PI, PF, S, cols, W[5])
     else:
         _sp_jacobian(PI, PF, S, cols, P, W[0])
 
@@ -1282,6 +1262,38 @@ def _lsq(J, rank, W):
         return True, np.nan, inv0
     cond, inv0 = _svd_parts(J, rank, W[4], W[5], W[6])
     return False, cond, inv0
+
+
+@numba.njit(inline="always", **_JIT)
+def _jac_values(P, W):
+    """The values of the Jacobian in ``W`` (:func:`_ls_jacobian`), flat: the dense matrix's
+    or the blocks'."""
+    if P[P_DENSE]:
+        return _flat(W[5])
+    return W[0]
+
+
+@numba.njit(**_JIT)
+def _step_bound(P, W, Jp, inv_prev, rs):
+    """Upper bounds, without factoring the Jacobian ``J`` in ``W``, of its minimum-norm
+    step ``‖J⁺ r‖`` for the residual ``rs`` and of its condition estimate
+    ``sqrt(‖J‖²_F · tr G⁻¹)`` (:func:`_factor`), from the previous iteration's
+    Jacobian values ``Jp`` and its ``sqrt(tr G⁻¹) = inv_prev`` (≥ 1 / σ_min): Weyl's
+    ``σ_min(J) ≥ 1 / inv_prev − ‖J − J_prev‖_F =: σ``, then ``‖r‖ / σ`` and
+    ``sqrt(k) ‖J‖_F / σ``; ``(inf, inf)`` where σ is not positive."""
+    J = _jac_values(P, W)
+    d2, jj = 0.0, 0.0
+    for i in range(J.size):
+        d = J[i] - Jp[i]
+        d2 += d * d
+        jj += J[i] * J[i]
+    lo = 1.0 / inv_prev - math.sqrt(d2)
+    if not lo > 0.0:
+        return np.inf, np.inf
+    rr = 0.0
+    for a in range(P[P_M]):
+        rr += rs[a] * rs[a]
+    return math.sqrt(rr) / lo, math.sqrt(jj * P[P_K]) / lo
 
 
 @numba.njit(**_JIT)
@@ -1401,7 +1413,13 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
     below what rounding of the residual explains near a singular configuration) and the
     residual is at rounding level or stopped falling, else caps the step at ``max_step``
     and backtracks (1, 1/2 ... 1/128) to the first trial that does not raise the
-    residual.  Continuation: the predictor's change of any coordinate
+    residual.  At the end of a ``SOLVE`` member's path whose kinematic state is not
+    returned, neither the analogs nor the last step itself are kept: a residual at
+    rounding level converges there without a factorisation when an upper bound of the
+    step (:func:`_step_bound`, from the previous iteration's) is at most half ``xtol`` ·
+    offset and its condition estimate certainly on the Cholesky path (condition NaN, as
+    there; ``last`` the bound), else the iteration goes on as above: the same poses,
+    residuals and iterations.  Continuation: the predictor's change of any coordinate
     is capped at ``path_step``; a step is accepted when the corrector converges, the
     loops close (``rtol``) and the corrected pose lies within half the predicted step of
     the predictor, else halved down to ``min_step`` (then stop); at a pose whose
@@ -1421,6 +1439,7 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
     dn = P[P_DENSE] == 1                # the dense kernels' scratch only where they serve
     Wd = _lsq_work(m if dn else 0, nu if dn else 0, ni)
     Jiv = np.zeros(6 * Pi[P_NNZ])
+    Jp = np.zeros(max(6 * P[P_NNZ], m * nu))     # the previous iteration's Jacobian
     # scratch: the corrector's state, the line search's trial, the member's state
     # (SOLVE), the shared start (SOLVE); the predicted state, the Newton step's arrays
     sts = (_state_buffers(q, rot, A, link, r, S, first),
@@ -1432,7 +1451,7 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
     mat = (np.zeros((m, 1 + ni)), np.zeros((nu, 1 + ni)), np.zeros((nv, ni)),
            np.zeros((nv, ni)))
     m3 = (np.zeros((ns, 3, 3)), np.zeros((3, 4, 4)), np.zeros((1, 3, 3)))
-    owners = (P, Pi, Jiv, W, Wd, sts, vec, mat, m3)
+    owners = (P, Pi, Jiv, Jp, W, Wd, sts, vec, mat, m3)
     # every array below is borrowed (:func:`_borrowed`): the owners above and the
     # arguments stay alive to the end (:func:`_keep_alive` at every return)
     PI, PF, PM, x_from, x_to = _borrowed(PI), _borrowed(PF), _borrowed(PM), \
@@ -1442,7 +1461,7 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
         _borrowed(its), _borrowed(flag)
     tangent, fopts, ucols, icols, x_cur = _borrowed(tangent), _borrowed(fopts), \
         _borrowed(ucols), _borrowed(icols), _borrowed(x_cur)
-    P, Pi, Wi = _borrowed(P), _borrowed(Pi), (_borrowed(Jiv),)
+    P, Pi, Wi, Jp = _borrowed(P), _borrowed(Pi), (_borrowed(Jiv),), _borrowed(Jp)
     W = (_borrowed(W[0]), _borrowed(W[1]), _borrowed(W[2]), _borrowed(W[3]), _borrowed(W[4]),
          _borrowed(W[5]), _borrowed(W[6]), _borrowed(W[7]), _borrowed(W[8]), _borrowed(W[9]),
          _borrowed(W[10]), _borrowed(W[11]))
@@ -1469,6 +1488,7 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
     sweep = task == SWEEP
     newton_only = task == NEWTON
     solve_t = task == SOLVE
+    kept_out = A.shape[0] > 0           # SOLVE: the kinematic states returned
     corr_its = min(maxiter, 8)
     c0 = np.int64(0)                    # the step's column (not a literal: one compile)
     if sweep:
@@ -1594,6 +1614,11 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
             _evaluate(PI, PF, PM, cq, crot, cA, clink, cfa, cr, cS, T, w3)
             n_res = _scaled_residual(cr, scale, rs)
             prev = np.inf
+            # the end of a SOLVE member's path whose state is not returned: a converged
+            # pose needs no analogs and its last step only as a test, which a bound of it
+            # from the previous iteration's factorisation (1 / σ_min ≤ prev_inv) can pass
+            bounded = solve_t and phase == 1 and final and not kept_out
+            prev_inv = np.inf
             n_its = 0
             done = nu == 0
             n_cond = 1.0
@@ -1606,8 +1631,17 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
                 if done:
                     break
                 _ls_jacobian(PI, PF, cS, ucols, P, W)
-                fast, n_cond, inv0 = _ls_factor(P, rank, W, Wd)
                 n_its += 1
+                if bounded and n_res <= floor:  # converged if the step's bound says so
+                    sb, cb = _step_bound(P, W, Jp, prev_inv, rs)
+                    if sb <= 0.5 * xtl and cb <= 0.5 * FAST_COND:
+                        done = True
+                        n_cond, n_last = np.nan, sb
+                        break
+                fast, n_cond, inv0 = _ls_factor(P, rank, W, Wd)
+                if bounded:
+                    prev_inv = inv0 if fast else np.inf
+                    _copy(_jac_values(P, W), Jp)
                 for a in range(m):
                     R[a, 0] = rs[a]
                 _ls_solve(P, fast, W, Wd, R, X, c0)
@@ -1626,7 +1660,7 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
                 if conv:
                     done = True
                     n_last = big
-                    if ni:              # the analogs: the input columns as right-hand sides
+                    if ni and not bounded:  # the analogs: the input columns as right-hand sides
                         _analog_rhs(PI, PF, cS, icols, Pi, Wi[0], R)
                         for i in range(ni):
                             _ls_solve(P, fast, W, Wd, R, X, 1 + i)

@@ -16,7 +16,9 @@ returned (for well-conditioned poses when it is first read).
 Each iteration evaluates the kinematic state once per line-search trial and makes one
 factorisation, which serves the Newton step and the first-order analogs at once (the
 Jacobian's input columns are extra right-hand sides): the continuation's predictor takes
-its tangent from the corrector's last iteration.  The factorisation follows the
+its tangent from the corrector's last iteration.  The last iteration of a batch member
+whose kinematic state is not returned may converge on a bound of its step instead (no
+analogs needed there: the same poses and figures).  The factorisation follows the
 Jacobian's block structure (loops that share few joints: linear in the number of loops).
 A batch solved by continuation from its guesses is one kernel call (each guess corrected,
 then continued, members with the same guess sharing its correction), with no

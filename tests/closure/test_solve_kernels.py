@@ -199,6 +199,40 @@ def test_exactly_singular_pose_gives_a_finite_minimum_norm_answer():
                                atol=1e-9)
 
 
+@pytest.mark.parametrize("build", [lambda: rssr(0.2, 1)[0], lambda: parallelogram(1.0, 2.0)])
+def test_step_bound_bounds_the_newton_step_and_the_condition_estimate(build):
+    """The bound that ends a batch member's path without factoring its last Jacobian
+    (:func:`closure.solve_kernels._step_bound`: Weyl from the previous iteration's
+    factorisation) is at least the minimum-norm Newton step and the condition estimate
+    it stands for, from near a solved pose to far from it (then no bound: inf)."""
+    m = build()
+    plan, ucols = m.plan, m.plan._ucols
+    PI, PF, _ = plan.packed
+    P = K._pattern(PI, PF, ucols)
+    W = K._sp_work(P, 2)
+    p = m.solve(0.3)
+    def gram(J):                        # J Jᵀ wide, Jᵀ J tall
+        return J @ J.T if J.shape[0] < J.shape[1] else J.T @ J
+    J0 = plan.scaled_jacobian(p.kinematics().S, ucols)[0]
+    inv_prev = np.sqrt(np.trace(np.linalg.inv(gram(J0))))
+    rng = np.random.default_rng(2)
+    for size in (1e-10, 1e-7, 1e-4, 1e-2, 1.0):
+        dv = np.zeros((1, plan.nv))
+        dv[0, ucols] = rng.normal(size=ucols.size) * size
+        ks = plan.evaluate(*plan.apply(p.q, p.rot, dv))
+        J = plan.scaled_jacobian(ks.S, ucols)[0]
+        r = plan.scaled_residual(ks.r)[0]
+        W[5][:] = J
+        step_bound, cond_bound = K._step_bound(P, W, J0.ravel(), inv_prev, r)
+        if size == 1.0:
+            assert step_bound == cond_bound == np.inf
+            continue
+        step = np.linalg.pinv(J) @ r
+        cest = np.sqrt((J * J).sum() * np.trace(np.linalg.inv(gram(J))))
+        assert np.linalg.norm(step) <= step_bound < np.inf
+        assert cest <= cond_bound
+
+
 def test_kernels_compile_once_whatever_the_mechanism():
     """Every mechanism, batch size and solver path calls the kernels with arrays of the
     same types: one compiled version each (the first-call compile is paid once)."""

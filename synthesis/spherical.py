@@ -1005,27 +1005,13 @@ def _hs_roots(R, t, P, p, circle, z, steps: int = 3):
 
 def _hs_tasks(T, axes, points, subsets):
     """The sub-tasks of the task ``T (N, 4, 4)`` (screw ``axes``, ``points`` (N − 1, 3))
-    through the positions ``subsets (S, 4)`` (0-based, each starting at 0), each
-    normalised as :func:`synthesis.binary._task` normalises a task of its own (the same
-    arithmetic): a list of ``_Task``, None where the sub-task's positions coincide, and
-    the error messages (S,) (``""``, or :func:`_subtasks`' message, that of ``_task``)."""
+    through the positions ``subsets (S, 4)`` (0-based, each starting at 0), normalised by
+    :func:`_subtasks`: a list of ``_Task``, None where the sub-task's positions coincide,
+    and the error messages (S,) (``""``, or :func:`_subtasks`' message)."""
     from .binary import _Task
-    from .validate import task_scale
-    subsets = np.asarray(subsets, int)
-    error = _subtasks(T, axes, points, subsets).error
-    tasks = []
-    for sub, msg in zip(subsets, error):
-        if msg:
-            tasks.append(None)
-            continue
-        Ts = T[sub]
-        c, L, reach = task_scale(Ts, axes[sub[1:] - 1], points[sub[1:] - 1])
-        C = np.eye(4)
-        C[:3, 3] = -c
-        C[:3] /= L
-        C[3] = (0, 0, 0, 1.0)
-        tasks.append(_Task(Ts, C @ Ts @ np.linalg.inv(C), c, L, reach))
-    return tasks, error
+    sub = _subtasks(T, axes, points, subsets)
+    return [None if msg else _Task(sub.T[b], sub.Tn[b], sub.c[b], sub.L[b], sub.reach[b])
+            for b, msg in enumerate(sub.error)], sub.error
 
 
 def _hs_many(tasks, errors, p, psis, F, tol, kind):
@@ -1140,8 +1126,6 @@ def _hs_links_grid(kind, screws, combos, psis, pitch, frame):
     combos = np.asarray(combos, int).reshape(len(combos), -1)
     error = np.full((len(combos), len(psis)), "", dtype=object)
     T, axes, points = _task_arrays(screws, len(screws) + 1)
-    tasks, errors = _hs_tasks(T, axes, points,
-                              np.concatenate([np.zeros((len(combos), 1), int), combos], 1))
     p = number(pitch, "pitch", unit_="length/rad")
     psis = [number(float(psi), "azimuth", unit_="rad") for psi in psis]
     F = _frame_arg(frame, _screws(screws, "screws"))
@@ -1153,7 +1137,8 @@ def _hs_links_grid(kind, screws, combos, psis, pitch, frame):
             except SynthesisError as e:
                 res.append([e] * len(psis))
     else:
-        res = _hs_many(tasks, errors, p, psis, F, 1e-9, kind)
+        res = _hs_many(*_hs_tasks(T, axes, points, np.concatenate(
+            [np.zeros((len(combos), 1), int), combos], 1)), p, psis, F, 1e-9, kind)
     links, blocks = [], []
     for i, found_i in enumerate(res):
         for a, found in enumerate(found_i):

@@ -16,7 +16,8 @@ frame_from_points    a joint frame from three points (seed 000's rule)
 transform, inverse, exp_se3, log_se3, rot_x, rot_y, rot_z, rotation, skew
 MechanismError       bad input (a ValueError)
 ClosureError         the loops could not be closed (carries the figures)
-Dynamics, Body       closure.dynamics: pseudo-inertias, inverse and forward dynamics
+Dynamics, Body       closure.dynamics: pseudo-inertias, terms, inverse dynamics; forward
+                     dynamics in closure.forward (one trajectory) and closure.batch_dynamics
 ReducedDynamics      the same model with each loop replaced by transfer functions
                      (``Dynamics.reduced``; surrogates from approx.surrogate_dynamics)
 drive_tolerance      drive forces of mechanisms made with joint errors (closure.tolerance)

@@ -280,7 +280,7 @@ def simulate_batch(dynamics, t_span, x0, xd0, *, t_eval=None, method: str = "DOP
     -------
     BatchDynamicsResult
     """
-    from .dynamics import _simulate_arguments
+    from .forward import _simulate_arguments
     mech = dynamics.m
     n = len(mech.inputs)
     if method not in BATCH_METHODS:

@@ -13,7 +13,8 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 
-from .dynamics import Dynamics, _inverse_arguments, _simulate_arguments
+from .dynamics import Dynamics, _inverse_arguments
+from .forward import _simulate_arguments
 from .errors import MechanismError
 from .frames import _transform, as_array, input_rates, rot_y, skew
 

@@ -7,6 +7,7 @@ from scipy.integrate import solve_ivp
 
 from closure import Dynamics, Mechanism, frame_from_points, translation
 from closure import dynamics_kernels as dk
+from closure.forward import _rhs
 from closure.frames import _cross, skew
 from closure.integrate import RHS_COND, PoseTracker, solve_along
 from closure.kinematics import _bias, analogs, link_twists
@@ -254,7 +255,7 @@ def test_right_hand_side_is_the_terms_at_the_tracked_pose():
     start.scalar = False
     drive = lambda t, x, xd: np.array([0.2 - 0.5 * xd[0]])
     tracker = PoseTracker(m, start, opts, np.ones(1), dynamics=d._packed()[1:])
-    rhs = d._rhs(tracker, drive, opts)
+    rhs = _rhs(d, tracker, drive, opts)
     for x, xd, t in ((0.13, 0.7, 0.1), (0.18, -0.4, 0.2), (0.11, 1.3, 0.3)):
         y = np.array([x, xd, 0.0, 0.0])
         base, tangent = tracker.pose, tracker.first.copy()

@@ -61,7 +61,7 @@ import numpy as np
 from . import lstsq as _lstsq_module
 from . import solve_kernels as _sk
 from .solve_kernels import (_JIT, F_COLSC, F_ROWMAP, H_NC, H_NJ, H_NL, H_NV, O_INQ, _apply,
-                            _borrowed, _cholesky, _lsq, _lsq_solve, _lsq_work,
+                            _borrowed, _cholesky, _keep_alive, _lsq, _lsq_solve, _lsq_work,
                             _scaled_jacobian, _svd_parts)
 from .solve_kernels import _evaluate as _evaluate_state
 
@@ -154,6 +154,19 @@ def _work(PI, ni, nu):
             np.zeros((m, ni)), np.zeros((nu, ni)), np.zeros((m, 1)),
             np.zeros((nu, 1)), np.zeros((nl, 6)), np.zeros((nv, 6)), np.zeros((ni, 6)),
             np.zeros(6), np.zeros((3, 3)), np.zeros((ni, ni)))
+
+
+@_njit
+def _borrowed_work(wk):
+    """:func:`closure.solve_kernels._borrowed` of every array of the scratch of
+    :func:`_work` (the caller keeps ``wk`` alive while they are used)."""
+    W = wk[0]
+    return ((_borrowed(W[0]), _borrowed(W[1]), _borrowed(W[2]), _borrowed(W[3]),
+             _borrowed(W[4]), _borrowed(W[5]), _borrowed(W[6]), _borrowed(W[7]),
+             _borrowed(W[8]), _borrowed(W[9])), _borrowed(wk[1]), _borrowed(wk[2]),
+            _borrowed(wk[3]), _borrowed(wk[4]), _borrowed(wk[5]), _borrowed(wk[6]),
+            _borrowed(wk[7]), _borrowed(wk[8]), _borrowed(wk[9]), _borrowed(wk[10]),
+            _borrowed(wk[11]), _borrowed(wk[12]))
 
 
 @_njit
@@ -545,8 +558,9 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
     blk = iopt[B_SIZE]
     o_M, o_h, o_Q, o_f, o_qd, o_en, o_fig = iopt[B_M], iopt[B_H], iopt[B_Q], iopt[B_FIRST], \
         iopt[B_QD], iopt[B_EN], iopt[B_FIG]
-    wk = _work(PI, ni, nu)
-    qdd = np.zeros(nv)
+    # the scratch borrowed (no reference counts in the calls per pose), kept to the end
+    owned = (_work(PI, ni, nu), np.zeros(nv))
+    wk, qdd = _borrowed_work(owned[0]), _borrowed(owned[1])
     if task == TERMS:
         nj, nl, nc = PI[H_NJ], PI[H_NL], PI[H_NC]
         A_, link_, fa_ = np.zeros((nj, 4, 4)), np.zeros((nl, 4, 4)), np.zeros((nj, 4, 4))
@@ -562,6 +576,7 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
                                  buf[o + o_h:o + o_h + ni], buf[o + o_Q:o + o_Q + ni],
                                  buf[o + o_en:o + o_en + 3])
             buf[o + o_fig + FIG_COND] = bound
+        _keep_alive(owned)
         return OK
     if task == RHS or task == BATCH_RHS:            # one pose: the batch-of-one member 0
         # the members' views borrowed (no reference counts): the arguments outlive them
@@ -581,6 +596,7 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
             buf[o + o_code] = code
             if code != OK:
                 n_bad += 1
+        _keep_alive(owned)
         return code if task == RHS else n_bad
     # TRACK: the solver's corrected state of one pose, judged
     conv = flag[0] != 0
@@ -592,6 +608,7 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
     if c_ != c_:                                # the Cholesky path: the SVD's figure
         c_ = _exact_condition(PI, PF, S[0], ucols, rank, wk[1], wk[0])
     fig[FIG_COND] = c_
+    _keep_alive(owned)
     if not closed:
         return NOT_CLOSED
     _adopt(q[0], rot[0], bq, brot, bx, y)

@@ -3,17 +3,19 @@
 :func:`simulate_batch` integrates ``M(x) ẍ = Q(t, x, ẋ) − h(x, ẋ)`` for B members of
 one :class:`~closure.dynamics.Dynamics` model with
 :func:`closure.batch_integrate.integrate_batch` (scipy's RK45/DOP853 controller per
-member).  Each stage of the active members is three compiled calls for them all, the
-same kernel code that one right-hand side of :meth:`~closure.dynamics.Dynamics.simulate`
-runs for its single trajectory, with no Python per member:
+member).  Each stage of the active members is one compiled call for them all
+(:func:`closure.dynamics_kernels.step` task ``BATCH_STAGE``), the kernel code that one
+right-hand side of :meth:`~closure.dynamics.Dynamics.simulate` runs for its single
+trajectory, with no Python per member; for each member in turn:
 
-- :func:`closure.dynamics_kernels.step` task ``BATCH_PREDICT``: each member's last solved
-  pose moved along its own tangent (first analogs) to the stage's inputs;
-- the solver's Newton (:func:`closure.solve_kernels.drive`, task ``NEWTON``) corrects
-  every member's pose, so that each is tracked on its own branch;
-- task ``BATCH_RHS``: each pose judged (closed, its condition number), the terms M, h, Q,
-  the first analogs and the dampers' power formed there, ``ẍ = M⁻¹ (Q − h)``, and the
-  member's base pose and tangent moved on.
+- its last solved pose moved along its own tangent (first analogs) to the stage's inputs,
+  plus a second-order term along its last rates;
+- the solver's Newton (:func:`closure.solve_kernels._newton`) corrects it, so that each
+  member is tracked on its own branch;
+- the pose judged (closed, its condition number), the terms M, h, Q, the first analogs
+  and the dampers' power formed there (with the Newton's last factorisation of the loop
+  Jacobian where it is the pose's), ``ẍ = M⁻¹ (Q − h)``, and the member's base pose and
+  tangent moved on.
 
 The model's kernel data are packed once (``Dynamics._packed``, kept until the model
 changes).  Given joint forces and drives (Python callables) are added by vectorised calls
@@ -116,8 +118,7 @@ class _Members:
     (B, n): the last pose solved for it), its tangent (first analogs, ``tangent``
     (B, nv, n)) and its block of the kernels' fields (``buf``, B blocks: its last
     right-hand side, whose rates and velocity-product accelerations give the predictor's
-    second-order term), updated in place by the kernels; the solver's state arrays (B
-    rows, the first A used by a call of A members: scratch).
+    second-order term), updated in place by the kernels.
     """
 
     def __init__(self, dynamics, start: Pose, ok: np.ndarray, xd0: np.ndarray,
@@ -125,12 +126,10 @@ class _Members:
         from . import dynamics_kernels as dk
         from .integrate import RHS_COND
         from .lstsq import _expected_rank
-        from .solver import _NO_COLS, _NO_T, _NO_X
         mech = dynamics.m
         plan = mech.plan
         B, n = start.inputs.shape
-        nv, nq, nj, nl, nc = plan.nv, plan.nq, plan.nj, plan.nl, plan.chords.size
-        ns = start.rot.shape[1]
+        nv, nq = plan.nv, plan.nq
         self.dk, self.n, self.nv, self.mech, self.opts = dk, n, nv, mech, opts
         _, DI, DF = dynamics._packed()
         rank = _expected_rank(mech)
@@ -146,24 +145,18 @@ class _Members:
                                            xd0[ok], opts)
         self.tangent0 = self.tangent.copy()
         self.buf = np.zeros(B * self.size)
-        # the solver's state arrays (rows 0 .. A-1 used by a call); no analogs asked of its
-        # Newton (no input columns): the terms form them
-        self._state = (np.zeros((B, nq)), np.zeros((B, ns, 3, 3)), np.zeros((B, nj, 4, 4)),
-                       np.zeros((B, nl, 4, 4)), np.zeros((B, nj, 4, 4)), np.zeros((B, nc, 6)),
-                       np.zeros((B, nv, 6)), np.zeros((B, nv, 0)), np.zeros(B), np.zeros(B),
-                       np.zeros(B), np.zeros(B, dtype=np.int64), np.zeros(B, dtype=np.int64))
         self._step = dk.step
-        self._step_head = (*plan.packed, DI, DF, fopts, iopt, plan._ucols, plan._icols)
-        sk = plan._kernels
-        self._drive = sk.drive
-        self._drive_head = (sk.NEWTON, *plan.packed, _NO_X, _NO_X)
-        self._drive_tail = (_NO_T, False, fopts, opts.maxiter, rank, plan._ucols, _NO_COLS,
-                            _NO_X)
+        # the step's arguments before the members' arrays; those of the one-pose tasks
+        # (the solver's batch-of-one state) are unused by BATCH_STAGE: empty
+        self._step_head = (*plan.packed, DI, DF, fopts, iopt, plan._ucols, plan._icols,
+                           np.zeros((0, nq)), np.zeros((0, 0, 3, 3)), np.zeros((0, 0, 4, 4)),
+                           np.zeros((0, 0, 6)), np.zeros(0), np.zeros(0),
+                           np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
 
     def solve(self, members: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, int]:
         """The right-hand side of ``members`` (A,) at states ``y`` (A, 2n + 2) (C-contiguous,
-        writable): three compiled calls for them all (:func:`closure.dynamics_kernels.step`
-        ``BATCH_PREDICT``, the solver's Newton, ``BATCH_RHS``).  Returns the members'
+        writable): one compiled call for them all (:func:`closure.dynamics_kernels.step`
+        ``BATCH_STAGE``: predictor, the solver's Newton, terms).  Returns the members'
         blocks (A, size) and the number of members whose code is not ``OK``."""
         A = members.size
         full = A == self.B                  # every member (members are ascending, unique)
@@ -174,16 +167,10 @@ class _Members:
             bq, brot, bx, tangent = self.bq[members], self.brot[members], \
                 self.bx[members], self.tangent[members]
             buf = blocks[members].reshape(-1)
-        q, rot, A_, link, fa, r, S, first, res, cond, last, its, flag = \
-            (a[:A] for a in self._state)
-        n, dk = self.n, self.dk
-        tail = (q, rot, link, S, res, cond, its, flag, bq.reshape(-1),
-                brot.reshape(-1, 3, 3), bx.reshape(-1), tangent.reshape(-1, n), y.reshape(-1),
-                buf)
-        self._step(dk.BATCH_PREDICT, *self._step_head, *tail)
-        self._drive(*self._drive_head, q, rot, A_, link, fa, r, S, first, res, cond, last,
-                    its, flag, *self._drive_tail)
-        bad = self._step(dk.BATCH_RHS, *self._step_head, *tail)
+        n = self.n
+        bad = self._step(self.dk.BATCH_STAGE, *self._step_head, bq.reshape(-1),
+                         brot.reshape(-1, 3, 3), bx.reshape(-1), tangent.reshape(-1, n),
+                         y.reshape(-1), buf)
         if not full:                        # the members' bases, tangents and blocks
             self.bq[members], self.brot[members] = bq, brot
             self.bx[members], self.tangent[members] = bx, tangent

@@ -30,11 +30,13 @@ without the terms (the integrator's step poses).  What the kernel cannot settle 
 reports instead (a pose that does not close, a near-singular one, a non-finite force, a
 mass matrix without a Cholesky factor) and the caller takes the pose-by-pose path.
 Batched forward dynamics (:func:`closure.batch_dynamics.simulate_batch`: B trajectories
-in lockstep) runs the same three calls per stage for all its members at once: tasks
-``BATCH_PREDICT`` and ``BATCH_RHS`` loop over the members' ``PREDICT`` (with a
-second-order term along the member's last rates) and ``RHS`` around one Newton call for
-them all, and :func:`nearest_poses` keeps each member's solved pose nearest every output
-time.
+in lockstep) runs the same steps per stage for all its members in one call: task
+``BATCH_STAGE`` (:func:`_batch_stage`) gives each member in turn ``PREDICT`` (with a
+second-order term along the member's last rates), the solver's Newton
+(:func:`closure.solve_kernels._newton`, the function ``drive`` runs) and ``RHS``, whose
+terms then take the Newton's last factorisation of the loop Jacobian instead of forming
+and factoring it again; :func:`nearest_poses` keeps each member's solved pose nearest
+every output time.
 
 The mechanism's structure comes packed by :func:`closure.solve_kernels.pack`; the
 dynamics' own data by :func:`pack` here, into ``DI`` (int64: counts, offsets, each
@@ -60,13 +62,15 @@ import numpy as np
 
 from . import lstsq as _lstsq_module
 from . import solve_kernels as _sk
-from .solve_kernels import (_JIT, F_COLSC, F_ROWMAP, H_NC, H_NJ, H_NL, H_NV, O_INQ, _apply,
-                            _borrowed, _cholesky, _keep_alive, _lsq, _lsq_solve, _lsq_work,
-                            _scaled_jacobian, _svd_parts)
+from .solve_kernels import (_JIT, F_COLSC, F_ROWMAP, H_NC, H_NJ, H_NL, H_NV, O_INQ, P_DENSE,
+                            P_M, P_NNZ, _apply, _borrowed, _borrowed_state, _cholesky,
+                            _keep_alive, _ls_factor, _ls_jacobian, _lsq, _lsq_solve,
+                            _lsq_work, _newton, _pattern, _scaled_jacobian, _sp_work,
+                            _svd_parts)
 from .solve_kernels import _evaluate as _evaluate_state
 
 __all__ = ["pack", "layout", "options", "step", "PREDICT", "TRACK", "RHS", "TERMS",
-           "BATCH_PREDICT", "BATCH_RHS", "nearest_poses", "OK",
+           "BATCH_STAGE", "nearest_poses", "OK",
            "NOT_CLOSED", "SINGULAR", "NON_FINITE", "NOT_SPD"]
 
 
@@ -171,12 +175,15 @@ def _borrowed_work(wk):
 
 @_njit
 def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qdd, M, h, Q,
-           en):
+           en, fac):
     """The terms of one solved pose (link poses ``link``, column twists ``S``, stored
     coordinates ``q``) at input rates ``xd``: first analogs ``first`` (nv, ni), rates
     ``qd`` (nv), velocity-product accelerations ``qdd`` (nv), ``M`` (ni, ni), ``h``,
     ``Q`` (ni) (gravity, springs, dampers), ``en`` = (dampers' power, gravity energy,
-    spring energy), all overwritten; ``wk`` the scratch of :func:`_work`.
+    spring energy), all overwritten; ``wk`` the scratch of :func:`_work`.  ``fac`` =
+    ``(given, J, W, fast, cond, inv0)``: where ``given``, the unknowns' dense Jacobian at
+    this pose and its factorisation (:func:`closure.solve_kernels._lsq` into ``W``, as the
+    solver's Newton left them at the pose it converged to), else formed here.
 
     Returns ``(fast, bound)``: ``fast`` the Cholesky path was taken, ``bound`` then the
     estimate ``sqrt(‖J‖²_F · tr G⁻¹)`` (at least the condition number), else the
@@ -203,9 +210,12 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
     o_ps, o_lp, o_car, o_dptr, o_didx = DI[D_FPSIGN], DI[D_FLOOP], DI[D_CARRIER], \
         DI[D_DPTR], DI[D_DIDX]
     # first analogs: the unknowns' minimum-norm solve of the input columns (analogs)
-    _scaled_jacobian(PI, PF, S, ucols, Ju)
+    if fac[0]:
+        Ju, W, fast, cond, inv0 = fac[1], fac[2], fac[3], fac[4], fac[5]
+    else:
+        _scaled_jacobian(PI, PF, S, ucols, Ju)
+        fast, cond, inv0 = _lsq(Ju, rank, W)
     _scaled_jacobian(PI, PF, S, icols, Jin)
-    fast, cond, inv0 = _lsq(Ju, rank, W)
     if fast:
         jj = 0.0
         for a in range(m):
@@ -381,7 +391,7 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
 
 # ---------------------------------------------------------------------- the entry kernel
 #: tasks of :func:`step`
-PREDICT, TRACK, RHS, TERMS, BATCH_PREDICT, BATCH_RHS = 0, 1, 2, 3, 4, 5
+PREDICT, TRACK, RHS, TERMS, BATCH_STAGE = 0, 1, 2, 3, 4
 
 # iopt: the solver's maxiter, the expected rank, Newton's task code, 0 (the solver's
 # ``have``), then the offsets of the fields of a member's block of ``buf`` and its size
@@ -522,18 +532,12 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
     * ``TERMS``: :func:`_terms` for every pose ``q`` (B, nq), ``rot`` of a batch at rates
       ``y`` (B·ni), member b's fields in block b of ``buf`` (``link``, ``S`` unused);
       ``fig[FIG_COND]`` gets the condition estimate (or the condition).
-    * ``BATCH_PREDICT`` and ``BATCH_RHS``: ``PREDICT`` and ``RHS`` for every member b of a
-      batch of trajectories (batched forward dynamics,
-      :func:`closure.batch_dynamics.simulate_batch`), around one Newton call of the solver
-      for them all: member b's base pose, inputs and tangent are stacked in ``bq``
-      (B·nq), ``brot`` (B·ns, 3, 3), ``bx`` (B·ni) and ``tangent`` (B·nv, ni), its state
-      in ``y`` (B·(2 ni + 2)), its solver state in row b of ``q`` ... ``flag``, its fields
-      in block b of ``buf``; ``BATCH_RHS`` writes each member's code (as ``RHS``) into
-      its block's ``code`` and returns the number of members whose code is not
-      :data:`OK`.  Each member is treated on its own, by the same code as the single
-      trajectory (``PREDICT`` and ``RHS`` are these tasks for member 0 alone), except
-      that ``BATCH_PREDICT`` adds the second-order term along the member's last rates
-      from its block (:func:`_curvature`: fewer Newton iterations).
+    * ``BATCH_STAGE``: ``PREDICT``, the solver's Newton and ``RHS`` for every member of a
+      batch of trajectories (:func:`_batch_stage`; ``q`` ... ``flag`` unused): member b's
+      base pose, inputs and tangent stacked in ``bq`` (B·nq), ``brot`` (B·ns, 3, 3),
+      ``bx`` (B·ni) and ``tangent`` (B·nv, ni), its state in ``y`` (B·(2 ni + 2)), its
+      fields in block b of ``buf``; returns the number of members whose code is not
+      :data:`OK`.
 
     ``fopts``, ``iopt``: :func:`options`.  Returns :data:`OK`, or for ``TRACK`` and ``RHS``
     :data:`NOT_CLOSED` (the base kept), :data:`SINGULAR` (the pose's condition exceeds
@@ -542,18 +546,14 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
     ``M``) (the base and tangent moved, the terms written)."""
     ni = icols.shape[0]
     nv, nu = PI[H_NV], ucols.shape[0]
-    nq, ns, m = q.shape[1], rot.shape[1], 2 * ni + 2
-    if task == PREDICT or task == BATCH_PREDICT:    # one pose: the batch-of-one member 0
-        dv, R3 = np.zeros(nv), np.zeros((1, 3, 3))
-        blk, o_qdd = iopt[B_SIZE], iopt[B_QDD]
-        for b in range(q.shape[0] if task == BATCH_PREDICT else 1):
-            o = b * blk
-            xb, yb = bx[b * ni:(b + 1) * ni], y[b * m:(b + 1) * m]
-            k = 0.0 if task == PREDICT else _curvature(buf[o:o + blk], iopt, xb, yb)
-            _predict(PI, PF, bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns], xb,
-                     tangent[b * nv:(b + 1) * nv], yb, q[b], rot[b], dv, R3,
-                     buf[o + o_qdd:o + o_qdd + nv], k)
+    if task == PREDICT:                 # the batch-of-one member 0
+        o_qdd = iopt[B_QDD]
+        _predict(PI, PF, bq, brot, bx, tangent, y, q[0], rot[0], np.zeros(nv),
+                 np.zeros((1, 3, 3)), buf[o_qdd:o_qdd + nv], 0.0)
         return OK
+    if task == BATCH_STAGE:
+        return _batch_stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx,
+                            tangent, y, buf)
     rank = iopt[I_RANK]
     blk = iopt[B_SIZE]
     o_M, o_h, o_Q, o_f, o_qd, o_en, o_fig = iopt[B_M], iopt[B_H], iopt[B_Q], iopt[B_FIRST], \
@@ -561,6 +561,7 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
     # the scratch borrowed (no reference counts in the calls per pose), kept to the end
     owned = (_work(PI, ni, nu), np.zeros(nv))
     wk, qdd = _borrowed_work(owned[0]), _borrowed(owned[1])
+    nofac = (False, wk[1], wk[0], False, 0.0, 0.0)  # no factorisation given to the terms
     if task == TERMS:
         nj, nl, nc = PI[H_NJ], PI[H_NL], PI[H_NC]
         A_, link_, fa_ = np.zeros((nj, 4, 4)), np.zeros((nl, 4, 4)), np.zeros((nj, 4, 4))
@@ -574,30 +575,17 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
                                  buf[o + o_qd:o + o_qd + nv], qdd,
                                  buf[o + o_M:o + o_M + ni * ni].reshape((ni, ni)),
                                  buf[o + o_h:o + o_h + ni], buf[o + o_Q:o + o_Q + ni],
-                                 buf[o + o_en:o + o_en + 3])
+                                 buf[o + o_en:o + o_en + 3], nofac)
             buf[o + o_fig + FIG_COND] = bound
         _keep_alive(owned)
         return OK
-    if task == RHS or task == BATCH_RHS:            # one pose: the batch-of-one member 0
-        # the members' views borrowed (no reference counts): the arguments outlive them
-        q, rot, link, S, res, cond, its, flag = _borrowed(q), _borrowed(rot), \
-            _borrowed(link), _borrowed(S), _borrowed(res), _borrowed(cond), _borrowed(its), \
-            _borrowed(flag)
-        bq, brot, bx, tangent, y, buf = _borrowed(bq), _borrowed(brot), _borrowed(bx), \
-            _borrowed(tangent), _borrowed(y), _borrowed(buf)
-        o_code, n_bad, code = iopt[B_CODE], 0, OK
-        for b in range(q.shape[0] if task == BATCH_RHS else 1):
-            o = b * blk
-            code = _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q[b], rot[b], link[b],
-                             S[b], res[b], cond[b], its[b], flag[b], bq[b * nq:(b + 1) * nq],
-                             brot[b * ns:(b + 1) * ns], bx[b * ni:(b + 1) * ni],
-                             tangent[b * nv:(b + 1) * nv], y[b * m:(b + 1) * m],
-                             buf[o:o + blk], wk, qdd)
-            buf[o + o_code] = code
-            if code != OK:
-                n_bad += 1
+    if task == RHS:                     # the batch-of-one member 0
+        code = _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q[0], rot[0], link[0],
+                         S[0], res[0], cond[0], its[0], flag[0], bq, brot, bx, tangent, y,
+                         buf, wk, qdd, nofac)
+        buf[iopt[B_CODE]] = code
         _keep_alive(owned)
-        return code if task == RHS else n_bad
+        return code
     # TRACK: the solver's corrected state of one pose, judged
     conv = flag[0] != 0
     closed = conv and res[0] <= fopts[1]
@@ -617,13 +605,14 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
 
 @numba.njit(inline="always", **_JIT)
 def _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, cond, its, flag,
-              bq, brot, bx, tangent, y, buf, wk, qdd):
+              bq, brot, bx, tangent, y, buf, wk, qdd, fac):
     """Task ``RHS`` of :func:`step` for one corrected pose: its stored coordinates ``q``
     (nq,), ``rot`` (ns, 3, 3), link poses ``link`` (nl, 4, 4), twists ``S`` (nv, 6) and the
     solver's figures ``res``, ``cond``, ``its``, ``flag`` (scalars) judged into the
     block ``buf`` (:func:`layout`), the terms there at rates ``y[ni:2 ni]``, the base
     (``bq``, ``brot``, ``bx``) and ``tangent`` moved, ``out`` and ``Minv`` written; ``wk``
-    (:func:`_work`) and ``qdd`` (nv,) scratch.  Returns :func:`step`'s code."""
+    (:func:`_work`) and ``qdd`` (nv,) scratch; ``fac``: :func:`_terms`'.  Returns
+    :func:`step`'s code."""
     # borrowed (no reference counts on the views below): the caller keeps them alive
     PI, PF, fopts, iopt, ucols, icols = _borrowed(PI), _borrowed(PF), _borrowed(fopts), \
         _borrowed(iopt), _borrowed(ucols), _borrowed(icols)
@@ -646,7 +635,7 @@ def _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, c
     h, Q, en = buf[o_h:o_h + ni], buf[o_Q:o_Q + ni], buf[o_en:o_en + 3]
     xd = y[ni:2 * ni]
     fast, bound = _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qdd,
-                         M, h, Q, en)
+                         M, h, Q, en, fac)
     o_qdd = iopt[B_QDD]
     for c in range(nv):
         buf[o_qdd + c] = qdd[c]
@@ -686,6 +675,85 @@ def _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, c
             s += Minv[i, j] * (Q[j] - h[j])
         out[ni + i] = s
     return OK
+
+
+@_njit
+def _batch_stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y, buf):
+    """Task ``BATCH_STAGE`` of :func:`step`: one stage of every member b of a batch of
+    trajectories (:func:`closure.batch_dynamics.simulate_batch`), each on its own, in one
+    pass: the member's base pose moved along its tangent to the stage's inputs with the
+    second-order term along its last rates (:func:`_predict`, :func:`_curvature`),
+    corrected by the solver's Newton (:func:`closure.solve_kernels._newton`, the
+    iterations, tolerances and convergence test of ``PREDICT``'s Newton, here in
+    scratch), then judged and the terms formed as task ``RHS`` (:func:`_pose_rhs`) with
+    the Newton's last factorisation where it is the pose's and dense (one loop), so the
+    Jacobian is not formed and factored twice.  Member b's base pose, inputs and tangent
+    are stacked in ``bq`` (B·nq), ``brot`` (B·ns, 3, 3), ``bx`` (B·ni) and ``tangent``
+    (B·nv, ni), its state in ``y`` (B·(2 ni + 2)), its fields in block b of ``buf``, its
+    code (as ``RHS``) in the block's ``code``.  Returns the number of members whose code
+    is not :data:`OK`."""
+    ni, nu, rank, maxiter = icols.shape[0], ucols.shape[0], iopt[I_RANK], iopt[I_MAXITER]
+    nv, nj, nl, nc = PI[H_NV], PI[H_NJ], PI[H_NL], PI[H_NC]
+    mm, blk, o_qdd, o_code = 2 * ni + 2, iopt[B_SIZE], iopt[B_QDD], iopt[B_CODE]
+    B = y.shape[0] // mm
+    nq, ns = bq.shape[0] // max(B, 1), brot.shape[0] // max(B, 1)
+    P, Pi = _pattern(PI, PF, ucols), _pattern(PI, PF, icols)
+    m = P[P_M]
+    # the Newton's scratch (its dense factors wide enough for the terms' ni right-hand
+    # sides), two member states, the terms' scratch: owned here, used borrowed
+    own = (P, Pi, _sp_work(P, 1), _lsq_work(m, nu, ni), np.zeros(6 * Pi[P_NNZ]),
+           np.zeros(max(6 * P[P_NNZ], m * nu)),
+           ((np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nj, 4, 4)), np.zeros((nl, 4, 4)),
+             np.zeros((nj, 4, 4)), np.zeros((nc, 6)), np.zeros((nv, 6)), np.zeros((nv, 0))),
+            (np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nj, 4, 4)), np.zeros((nl, 4, 4)),
+             np.zeros((nj, 4, 4)), np.zeros((nc, 6)), np.zeros((nv, 6)), np.zeros((nv, 0)))),
+           (np.zeros(m), np.zeros(nv), np.zeros(3), np.zeros(nv), np.zeros(nv)),
+           (np.zeros((m, 1)), np.zeros((nu, 1))), (np.zeros((3, 4, 4)), np.zeros((1, 3, 3))),
+           _work(PI, ni, nu))
+    W0, Wd0 = own[2], own[3]
+    W = (_borrowed(W0[0]), _borrowed(W0[1]), _borrowed(W0[2]), _borrowed(W0[3]),
+         _borrowed(W0[4]), _borrowed(W0[5]), _borrowed(W0[6]), _borrowed(W0[7]),
+         _borrowed(W0[8]), _borrowed(W0[9]), _borrowed(W0[10]), _borrowed(W0[11]))
+    Wd = (_borrowed(Wd0[0]), _borrowed(Wd0[1]), _borrowed(Wd0[2]), _borrowed(Wd0[3]),
+          _borrowed(Wd0[4]), _borrowed(Wd0[5]), _borrowed(Wd0[6]), _borrowed(Wd0[7]),
+          _borrowed(Wd0[8]), _borrowed(Wd0[9]))
+    P, Pi, Wi, Jp = _borrowed(P), _borrowed(Pi), (_borrowed(own[4]),), _borrowed(own[5])
+    co, trial = _borrowed_state(own[6][0]), _borrowed_state(own[6][1])
+    rs, step, w3, dv, qdd = _borrowed(own[7][0]), _borrowed(own[7][1]), _borrowed(own[7][2]), \
+        _borrowed(own[7][3]), _borrowed(own[7][4])
+    R, X, T, R3 = _borrowed(own[8][0]), _borrowed(own[8][1]), _borrowed(own[9][0]), \
+        _borrowed(own[9][1])
+    wk = _borrowed_work(own[10])
+    PI, PF, PM, DI, DF = _borrowed(PI), _borrowed(PF), _borrowed(PM), _borrowed(DI), \
+        _borrowed(DF)
+    fopts, iopt, ucols, icols = _borrowed(fopts), _borrowed(iopt), _borrowed(ucols), \
+        _borrowed(icols)
+    bq, brot, bx, tangent, y, buf = _borrowed(bq), _borrowed(brot), _borrowed(bx), \
+        _borrowed(tangent), _borrowed(y), _borrowed(buf)
+    dense = P[P_DENSE] == 1
+    n_bad = 0
+    for b in range(B):
+        o = b * blk
+        xb, yb, blk_b = bx[b * ni:(b + 1) * ni], y[b * mm:(b + 1) * mm], buf[o:o + blk]
+        bq_b, brot_b, tan_b = bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns], \
+            tangent[b * nv:(b + 1) * nv]
+        _predict(PI, PF, bq_b, brot_b, xb, tan_b, yb, co[0], co[1], dv, R3,
+                 buf[o + o_qdd:o + o_qdd + nv], _curvature(blk_b, iopt, xb, yb))
+        co, trial, done, n_res, n_its, n_cond, _, at_pose, fast, inv0 = _newton(
+            PI, PF, PM, co, trial, maxiter, False, ucols, icols, P, Pi, W, Wd, Wi, Jp, rs, step,
+            R, X, T, w3, R3, rank, fopts)
+        if not done:                    # the condition at the state returned
+            _ls_jacobian(PI, PF, co[6], ucols, P, W)
+            n_cond = _ls_factor(P, rank, W, Wd)[1]
+        fac = (at_pose and dense, W[5], Wd, fast, n_cond, inv0)
+        code = _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, co[0], co[1], co[3], co[6],
+                         n_res, n_cond, n_its, np.int64(1 if done else 0), bq_b, brot_b, xb,
+                         tan_b, yb, blk_b, wk, qdd, fac)
+        buf[o + o_code] = code
+        if code != OK:
+            n_bad += 1
+    _keep_alive(own)
+    return n_bad
 
 
 @_njit

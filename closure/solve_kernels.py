@@ -37,7 +37,8 @@ with it to rounding:
   terms (steps equal to rounding); a full envelope (one loop) uses the dense kernels,
   whose values it then has bit for bit;
 * :func:`drive` — damped Gauss–Newton with backtracking and the fused first analogs
-  (:func:`closure.solver.newton`), and the continuation around it: predictor along the
+  (:func:`closure.solver.newton`; :func:`_newton`, which batched forward dynamics also
+  runs, :mod:`closure.dynamics_kernels`), and the continuation around it: predictor along the
   analogs, corrector, acceptance and step halving (:func:`closure.solver._continue`), for
   a batch of targets or a sweep's rows, or the whole batch solve from guesses
   (``SOLVE``: each guess corrected, then continued, its state in the kernel's scratch),
@@ -1372,6 +1373,112 @@ def _copy_out(st, b, q, rot, A, link, fa, r, S, first):
         _copy(st[7], first[b])
 
 
+@numba.njit(inline="always", **_JIT)
+def _newton(PI, PF, PM, co, trial, n_iter, bounded, ucols, icols, P, Pi, W, Wd, Wi, Jp, rs,
+            step, R, X, T, w3, R3, rank, fopts):
+    """Damped Gauss–Newton (:func:`closure.solver.newton`; :func:`drive`'s notes) on the
+    member state ``co`` (a tuple like :func:`_state_buffers`' rows: q, rot, A, link, fa,
+    r, S, first), ``trial`` the line search's state, at most ``n_iter`` iterations; the
+    analogs of ``icols`` go to ``first`` once converged, unless ``bounded`` (the end of a
+    SOLVE member's path whose state is not returned: no analogs, and the last step may be
+    bounded instead of factored, :func:`_step_bound`).  ``P``, ``Pi``, ``W``, ``Wd``,
+    ``Wi``, ``Jp``, ``rs``, ``step``, ``R``, ``X``, ``T``, ``w3``, ``R3``: :func:`drive`'s
+    scratch (borrowed); ``fopts``: :func:`drive`'s.
+
+    Returns ``(co, trial, done, n_res, n_its, n_cond, n_last, at_pose, fast, inv0)``: the
+    state tuples (swapped where the iteration ended in the trial's buffers), converged,
+    the scaled residual, the iterations, the condition (NaN on the Cholesky path), the
+    last step, and whether the last factorisation (``fast``, ``inv0`` of
+    :func:`_ls_factor`, left in ``W``, ``Wd``) is the returned pose's (converged by the
+    test)."""
+    xtol, max_step = fopts[0], fopts[2]
+    scale, offset = PF[PI[F_SCALE]], PF[PI[F_OFFSET]]
+    floor, xtl, noise = 1e-14 * offset, xtol * offset, 1e-15 * offset
+    o_inv, o_unk, o_unkcs = PI[O_INV], PI[O_UNK], PI[F_UNKCS]
+    nv, m, nu, ni = PI[H_NV], P[P_M], ucols.shape[0], co[7].shape[1]
+    c0 = np.int64(0)                    # the step's column (not a literal: one compile)
+    cq, crot, cA, clink, cfa, cr, cS, cfirst = co
+    tq, trot, tA, tlink, tfa, tr_, tS, tfirst = trial
+    _evaluate(PI, PF, PM, cq, crot, cA, clink, cfa, cr, cS, T, w3)
+    n_res = _scaled_residual(cr, scale, rs)
+    prev = np.inf
+    prev_inv = np.inf
+    n_its = 0
+    done = nu == 0
+    n_cond = 1.0
+    n_last = np.nan
+    at_pose = False
+    fast, inv0 = False, 0.0
+    _fill(cfirst, np.nan)
+    for i in range(ni):
+        for c in range(ni):
+            cfirst[PI[o_inv + i], c] = 1.0 if i == c else 0.0
+    for _ in range(n_iter):
+        if done:
+            break
+        _ls_jacobian(PI, PF, cS, ucols, P, W)
+        n_its += 1
+        if bounded and n_res <= floor:  # converged if the step's bound says so
+            sb, cb = _step_bound(P, W, Jp, prev_inv, rs)
+            if sb <= 0.5 * xtl and cb <= 0.5 * FAST_COND:
+                done = True
+                n_cond, n_last = np.nan, sb
+                break
+        fast, n_cond, inv0 = _ls_factor(P, rank, W, Wd)
+        if bounded:
+            prev_inv = inv0 if fast else np.inf
+            _copy(_jac_values(P, W), Jp)
+        for a in range(m):
+            R[a, 0] = rs[a]
+        _ls_solve(P, fast, W, Wd, R, X, c0)
+        big = 0.0
+        for k in range(nu):
+            v = abs(X[k, 0])
+            if v > big or v != v:
+                big = v
+        # converged: the residual at rounding level, or steps of at most xtol
+        # that no longer reduce it; near a singular configuration the step must
+        # also be what rounding in the residual explains (noise / σ_min)
+        stalled = n_its > 1 and n_res > 0.5 * prev
+        tol_step = max(xtl, noise * _ls_inv_smin(P, fast, inv0, xtl / noise, W, Wd))
+        conv = big <= tol_step and (n_res <= floor or stalled)
+        prev = n_res
+        if conv:
+            done = True
+            at_pose = True
+            n_last = big
+            if ni and not bounded:  # the analogs: the input columns as right-hand sides
+                _analog_rhs(PI, PF, cS, icols, Pi, Wi[0], R)
+                for i in range(ni):
+                    _ls_solve(P, fast, W, Wd, R, X, 1 + i)
+                for k in range(nu):
+                    for i in range(ni):
+                        cfirst[PI[o_unk + k], i] = -X[k, 1 + i] * PF[o_unkcs + k]
+            break
+        fac = min(1.0, max_step / max(big, 1e-300))
+        _fill(step, 0.0)
+        for k in range(nu):
+            step[ucols[k]] = -X[k, 0] * fac
+        # backtracking: the longest of 1, 1/2, 1/4 ... not raising the residual
+        for hs in range(8):
+            if hs:
+                for c in range(nv):
+                    step[c] *= 0.5
+            _apply(PI, PF, cq, crot, step, tq, trot, R3)
+            _evaluate(PI, PF, PM, tq, trot, tA, tlink, tfa, tr_, tS, T, w3)
+            rn = _scaled_residual(tr_, scale, rs)
+            if rn <= n_res * (1 + 1e-9) or rn < floor or hs == 7:
+                # the trial becomes the current state: swap the buffers
+                cq, tq, crot, trot, cA, tA = tq, cq, trot, crot, tA, cA
+                clink, tlink, cfa, tfa, cr, tr_, cS, tS = tlink, clink, tfa, cfa, \
+                    tr_, cr, tS, cS
+                n_res = rn
+                break
+    co = (cq, crot, cA, clink, cfa, cr, cS, cfirst)
+    trial = (tq, trot, tA, tlink, tfa, tr_, tS, tfirst)
+    return co, trial, done, n_res, n_its, n_cond, n_last, at_pose, fast, inv0
+
+
 @numba.njit(**_JIT)
 def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res, cond, last,
           its, flag, tangent, have, fopts, maxiter, rank, ucols, icols, x_cur):
@@ -1475,13 +1582,11 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
     R, X, newf, own_tan = _borrowed(mat[0]), _borrowed(mat[1]), _borrowed(mat[2]), \
         _borrowed(mat[3])
     prot, T, R3 = _borrowed(m3[0]), _borrowed(m3[1]), _borrowed(m3[2])
-    xtol, rtol, max_step, path_step = fopts[0], fopts[1], fopts[2], fopts[3]
+    rtol, path_step = fopts[1], fopts[3]
     min_step, tangent_cond = fopts[4], fopts[5]
     o_inv, o_unk, o_unkcs = PI[O_INV], PI[O_UNK], PI[F_UNKCS]
     o_cs, o_inq, o_insc = PI[F_COLSC], PI[O_INQ], PI[F_INSC]
-    scale, offset = PF[PI[F_SCALE]], PF[PI[F_OFFSET]]
-    floor, xtl, noise = 1e-14 * offset, xtol * offset, 1e-15 * offset
-    rtol_off = rtol * offset
+    rtol_off = rtol * PF[PI[F_OFFSET]]
     B = q.shape[0]
     nv, ni = first.shape[1], first.shape[2]
     nu = ucols.shape[0]
@@ -1490,7 +1595,6 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
     solve_t = task == SOLVE
     kept_out = A.shape[0] > 0           # SOLVE: the kinematic states returned
     corr_its = min(maxiter, 8)
-    c0 = np.int64(0)                    # the step's column (not a literal: one compile)
     if sweep:
         _fill(tangent, 0.0)
     n = x_to.shape[0] if sweep else B
@@ -1609,89 +1713,16 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
                 _copy(pq, co[0])
                 _copy(prot, co[1])
             # ------------------------------------------------ Newton on the state co
-            cq, crot, cA, clink, cfa, cr, cS, cfirst = co
-            tq, trot, tA, tlink, tfa, tr_, tS, tfirst = trial
-            _evaluate(PI, PF, PM, cq, crot, cA, clink, cfa, cr, cS, T, w3)
-            n_res = _scaled_residual(cr, scale, rs)
-            prev = np.inf
             # the end of a SOLVE member's path whose state is not returned: a converged
             # pose needs no analogs and its last step only as a test, which a bound of it
             # from the previous iteration's factorisation (1 / σ_min ≤ prev_inv) can pass
             bounded = solve_t and phase == 1 and final and not kept_out
-            prev_inv = np.inf
-            n_its = 0
-            done = nu == 0
-            n_cond = 1.0
-            n_last = np.nan
-            _fill(cfirst, np.nan)
-            for i in range(ni):
-                for c in range(ni):
-                    cfirst[PI[o_inv + i], c] = 1.0 if i == c else 0.0
-            for _ in range(n_iter):
-                if done:
-                    break
-                _ls_jacobian(PI, PF, cS, ucols, P, W)
-                n_its += 1
-                if bounded and n_res <= floor:  # converged if the step's bound says so
-                    sb, cb = _step_bound(P, W, Jp, prev_inv, rs)
-                    if sb <= 0.5 * xtl and cb <= 0.5 * FAST_COND:
-                        done = True
-                        n_cond, n_last = np.nan, sb
-                        break
-                fast, n_cond, inv0 = _ls_factor(P, rank, W, Wd)
-                if bounded:
-                    prev_inv = inv0 if fast else np.inf
-                    _copy(_jac_values(P, W), Jp)
-                for a in range(m):
-                    R[a, 0] = rs[a]
-                _ls_solve(P, fast, W, Wd, R, X, c0)
-                big = 0.0
-                for k in range(nu):
-                    v = abs(X[k, 0])
-                    if v > big or v != v:
-                        big = v
-                # converged: the residual at rounding level, or steps of at most xtol
-                # that no longer reduce it; near a singular configuration the step must
-                # also be what rounding in the residual explains (noise / σ_min)
-                stalled = n_its > 1 and n_res > 0.5 * prev
-                tol_step = max(xtl, noise * _ls_inv_smin(P, fast, inv0, xtl / noise, W, Wd))
-                conv = big <= tol_step and (n_res <= floor or stalled)
-                prev = n_res
-                if conv:
-                    done = True
-                    n_last = big
-                    if ni and not bounded:  # the analogs: the input columns as right-hand sides
-                        _analog_rhs(PI, PF, cS, icols, Pi, Wi[0], R)
-                        for i in range(ni):
-                            _ls_solve(P, fast, W, Wd, R, X, 1 + i)
-                        for k in range(nu):
-                            for i in range(ni):
-                                cfirst[PI[o_unk + k], i] = -X[k, 1 + i] * PF[o_unkcs + k]
-                    break
-                fac = min(1.0, max_step / max(big, 1e-300))
-                _fill(step, 0.0)
-                for k in range(nu):
-                    step[ucols[k]] = -X[k, 0] * fac
-                # backtracking: the longest of 1, 1/2, 1/4 ... not raising the residual
-                for hs in range(8):
-                    if hs:
-                        for c in range(nv):
-                            step[c] *= 0.5
-                    _apply(PI, PF, cq, crot, step, tq, trot, R3)
-                    _evaluate(PI, PF, PM, tq, trot, tA, tlink, tfa, tr_, tS, T, w3)
-                    rn = _scaled_residual(tr_, scale, rs)
-                    if rn <= n_res * (1 + 1e-9) or rn < floor or hs == 7:
-                        # the trial becomes the current state: swap the buffers
-                        cq, tq, crot, trot, cA, tA = tq, cq, trot, crot, tA, cA
-                        clink, tlink, cfa, tfa, cr, tr_, cS, tS = tlink, clink, tfa, cfa, \
-                            tr_, cr, tS, cS
-                        n_res = rn
-                        break
-            co = (cq, crot, cA, clink, cfa, cr, cS, cfirst)
-            trial = (tq, trot, tA, tlink, tfa, tr_, tS, tfirst)
+            co, trial, done, n_res, n_its, n_cond, n_last, _, _, _ = _newton(
+                PI, PF, PM, co, trial, n_iter, bounded, ucols, icols, P, Pi, W, Wd, Wi, Jp, rs,
+                step, R, X, T, w3, R3, rank, fopts)
             if phase == 0:              # ------------------------ Newton's pose: its figures
                 if not done:            # the condition at the state returned
-                    _ls_jacobian(PI, PF, cS, ucols, P, W)
+                    _ls_jacobian(PI, PF, co[6], ucols, P, W)
                     n_cond = _ls_factor(P, rank, W, Wd)[1]
                 if newton_only:
                     _copy_state(co, cur)

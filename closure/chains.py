@@ -140,25 +140,24 @@ def open_chain_poses(kinds, frames, values, pitches=None, *, validate: bool = Tr
                              f"got {'none' if pitches is None else 'a non-finite one'}")
     h = np.where(helical, h, 0.0)               # other joints' pitches are not read (inf: P)
     u = K == b"U"
-    Fb = F.copy()
-    Fb[u] = F[u] @ _U_MID                       # the frame on link b: F · A(0)
+    hooke = bool(u.any())
+    Fb = F
+    if hooke:
+        Fb = F.copy()
+        Fb[u] = F[u] @ _U_MID                   # the frame on link b: F · A(0)
+    # A(q) (P, V, k, 4, 4) of every joint at every position, as
+    # closure.state.Plan.joint_matrices builds it
+    th = np.where((K == b"P") | u, 0.0, q0)
+    c, s = np.cos(th), np.sin(th)
+    A = np.zeros(q0.shape + (4, 4))
+    A[..., 0, 0], A[..., 0, 1], A[..., 1, 0], A[..., 1, 1] = c, -s, s, c
+    A[..., 2, 2] = A[..., 3, 3] = 1.0
+    A[..., 2, 3] = np.where(K == b"P", q0, np.where(K == b"C", q1,
+                                                    np.where(helical, q0 * h, 0.0)))
+    if hooke:
+        A[:, u, :3, :3] = _rz(q0[:, u]) @ _U_MID[:3, :3] @ _rz(q1[:, u])
     Fbi = _inverse(Fb)
-    out = np.empty(q0.shape + (4, 4))
     for j in range(k):                          # joint j of every chain at every position
-        Kj, a, b = K[:, j], q0[:, :, j], q1[:, :, j]
-        # A(q) (P, V, 4, 4), as closure.state.Plan.joint_matrices builds it
-        th = np.where((Kj == b"P") | (Kj == b"U"), 0.0, a)
-        c, s = np.cos(th), np.sin(th)
-        A = np.zeros(a.shape + (4, 4))
-        A[..., 0, 0], A[..., 0, 1], A[..., 1, 0], A[..., 1, 1] = c, -s, s, c
-        A[..., 2, 2] = A[..., 3, 3] = 1.0
-        A[..., 2, 3] = np.select([Kj == b"P", Kj == b"C", Kj == b"H"], [a, b, a * h[:, j]], 0.0)
-        if u[:, j].any():
-            uj = u[:, j]
-            A[:, uj, :3, :3] = _rz(a[:, uj]) @ _U_MID[:3, :3] @ _rz(b[:, uj])
-        rel = F[:, j] @ A @ Fbi[:, j]           # link j in link j − 1, as the engine's tree
-        if j == 0:
-            out[:, :, 0] = rel
-        else:
-            np.matmul(out[:, :, j - 1], rel, out=out[:, :, j])
-    return out
+        rel = F[:, j] @ A[:, :, j] @ Fbi[:, j]  # link j in link j − 1, as the engine's tree
+        A[:, :, j] = rel if j == 0 else A[:, :, j - 1] @ rel     # (A becomes the poses)
+    return A

@@ -149,14 +149,18 @@ def exp_so3(w: np.ndarray) -> np.ndarray:
 
     Uses series expansions for small angles, so it is accurate down to zero.
     """
-    w = as_array(w, "exp_so3: w", (3,))
+    return _exp_so3(as_array(w, "exp_so3: w", (3,)))
+
+
+def _exp_so3(w):
+    """:func:`exp_so3` without checks (engine-internal: a finite float array (..., 3))."""
     th2 = np.sum(w * w, -1)
     th = np.sqrt(th2)
     small = th2 < 1e-8
     ths = np.where(small, 1.0, th)
     a = np.where(small, 1 - th2 / 6 + th2 ** 2 / 120, np.sin(ths) / ths)
     b = np.where(small, 0.5 - th2 / 24 + th2 ** 2 / 720, (1 - np.cos(ths)) / ths ** 2)
-    K = skew(w)
+    K = _skew(w)
     return _EYE3 + a[..., None, None] * K + b[..., None, None] * (K @ K)
 
 
@@ -206,11 +210,11 @@ def exp_se3(xi: np.ndarray) -> np.ndarray:
     """Transform ``exp(ξ^)`` of a twist ``(v, ω)``: ``(..., 6)`` → ``(..., 4, 4)``."""
     xi = as_array(xi, "exp_se3: xi", (6,))
     w, v = xi[..., 3:], xi[..., :3]
-    K = skew(w)
+    K = _skew(w)
     b, c = _left_jacobian_terms(np.sum(w * w, -1))
     V = _EYE3 + b[..., None, None] * K + c[..., None, None] * (K @ K)
     out = np.zeros(xi.shape[:-1] + (4, 4))
-    out[..., :3, :3] = exp_so3(w)
+    out[..., :3, :3] = _exp_so3(w)
     out[..., :3, 3] = (V @ v[..., None])[..., 0]
     out[..., 3, 3] = 1.0
     return out
@@ -245,7 +249,7 @@ def rotation(axis: np.ndarray, angle) -> np.ndarray:
     n = np.linalg.norm(axis, axis=-1, keepdims=True)
     if np.any(n < 1e-12):
         raise MechanismError("rotation: axis has zero length; expected a non-zero 3-vector")
-    return exp_so3(axis / n * angle[..., None])
+    return _exp_so3(axis / n * angle[..., None])      # (finite: |axis / n| ≤ 1)
 
 
 def _axis_rot(i, j, angle, name):

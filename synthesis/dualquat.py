@@ -11,6 +11,11 @@ import numpy as np
 __all__ = ["quat_from_rotation", "qmul", "qconj", "dq_mul", "dq_conj", "dq_from_matrix", "dq_to_matrix", "dq_inv"]
 
 
+#: the products a_i b_j (index 4 i + j) in the terms of each component of qmul, and their signs
+_TERMS = np.array([[0, 5, 10, 15], [1, 4, 11, 14], [2, 7, 8, 13], [3, 6, 9, 12]])
+_SIGNS = np.array([[1.0, -1, -1, -1], [1, 1, 1, -1], [1, -1, 1, 1], [1, 1, -1, 1]])
+
+
 def qmul(a, b):
     """Quaternion product (broadcasting; single quaternions take a scalar fast path)."""
     a, b = np.asarray(a, float), np.asarray(b, float)
@@ -19,12 +24,11 @@ def qmul(a, b):
         w2, x2, y2, z2 = b.tolist()
         return np.array([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2, w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
                          w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2, w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2])
-    w1, x1, y1, z1 = a[..., 0], a[..., 1], a[..., 2], a[..., 3]
-    w2, x2, y2, z2 = b[..., 0], b[..., 1], b[..., 2], b[..., 3]
-    return np.stack([w1 * w2 - x1 * x2 - y1 * y2 - z1 * z2,
-                     w1 * x2 + x1 * w2 + y1 * z2 - z1 * y2,
-                     w1 * y2 - x1 * z2 + y1 * w2 + z1 * x2,
-                     w1 * z2 + x1 * y2 - y1 * x2 + z1 * w2], -1)
+    # the 16 products a_i b_j at once, then each component's four signed terms summed left
+    # to right: the same operations, bit for bit, as the scalar path's expressions
+    P = a[..., :, None] * b[..., None, :]
+    T = P.reshape(P.shape[:-2] + (16,))[..., _TERMS] * _SIGNS
+    return T[..., 0] + T[..., 1] + T[..., 2] + T[..., 3]
 
 
 def qconj(a):
@@ -33,9 +37,12 @@ def qconj(a):
 
 
 def dq_mul(a, b):
-    a, b = np.asarray(a, float), np.asarray(b, float)
-    return np.concatenate([qmul(a[..., :4], b[..., :4]),
-                           qmul(a[..., :4], b[..., 4:]) + qmul(a[..., 4:], b[..., :4])], -1)
+    """Dual quaternion product (broadcasting): ``(r_a r_b, r_a d_b + d_a r_b)``, the three
+    quaternion products in one :func:`qmul`."""
+    a, b = np.broadcast_arrays(np.asarray(a, float), np.asarray(b, float))
+    q = qmul(np.stack([a[..., :4], a[..., :4], a[..., 4:]]),
+             np.stack([b[..., :4], b[..., 4:], b[..., :4]]))
+    return np.concatenate([q[0], q[1] + q[2]], -1)
 
 
 def dq_conj(a):
@@ -74,24 +81,21 @@ def quat_from_rotation(R) -> np.ndarray:
     tr = r00 + r11 + r22
     shape = tr.shape
     k = np.argmax(np.stack([tr, r00, r11, r22], -1), -1).reshape(-1)
-    # Shepperd's symmetric matrix: the quaternion is row k / (4 v), its k-th entry
-    # v = ½ √K_kk, for the largest diagonal entry k
-    K = np.empty((4, 4) + shape)
-    K[0, 0], K[1, 1] = 1 + tr, 1 + r00 - r11 - r22
-    K[2, 2], K[3, 3] = 1 + r11 - r22 - r00, 1 + r22 - r00 - r11
-    K[0, 1] = K[1, 0] = r21 - r12
-    K[0, 2] = K[2, 0] = r02 - r20
-    K[0, 3] = K[3, 0] = r10 - r01
-    K[1, 2] = K[2, 1] = r10 + r01
-    K[1, 3] = K[3, 1] = r20 + r02
-    K[2, 3] = K[3, 2] = r21 + r12
+    # Shepperd's symmetric matrix K (its ten distinct entries, _SHEPPERD): the quaternion
+    # is row k / (4 v), its k-th entry v = ½ √K_kk, for the largest diagonal entry k
+    K = np.stack([1 + tr, 1 + r00 - r11 - r22, 1 + r11 - r22 - r00, 1 + r22 - r00 - r11,
+                  r21 - r12, r02 - r20, r10 - r01, r10 + r01, r20 + r02, r21 + r12])
     i = np.arange(len(k))
-    row = K.reshape(4, 4, -1)[k, :, i]                                    # (n, 4)
+    row = K.reshape(10, -1)[_SHEPPERD[k], i[:, None]]                     # (n, 4)
     v = 0.5 * np.sqrt(row[i, k])
     q = row / (4 * v[:, None])
     q[i, k] = v
     q = q.reshape(shape + (4,))
     return np.where(q[..., :1] >= 0, q, -q)
+
+
+#: Shepperd's matrix K (4 x 4, symmetric) as indices into its ten distinct entries
+_SHEPPERD = np.array([[0, 4, 5, 6], [4, 1, 7, 8], [5, 7, 2, 9], [6, 8, 9, 3]])
 
 
 def dq_from_matrix(T):

@@ -39,7 +39,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import SynthesisError
-from .screw import Line
+from .screw import Line, _matrices
 from .validate import screws as _screws, task_scale
 # chain_mechanism, verify_chain, verify_chains: re-exported (they lived here before synthesis.verify)
 from .verify import chain_mechanism, verify_chain, verify_chains
@@ -66,8 +66,9 @@ def _check_screws(screws, n, family):
 
 
 def _task(screws):
-    """Positions (the identity first) and the task's reach (residuals are relative to it)."""
-    T = [np.eye(4)] + [s.matrix() for s in screws]
+    """Positions ``(n, 4, 4)`` (the identity first) and the task's reach (residuals are
+    relative to it)."""
+    T = np.concatenate([np.eye(4)[None], _matrices(screws)])
     _, _, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
     return T, reach
 
@@ -89,7 +90,7 @@ def rrr_dyads(screws) -> pd.DataFrame:
     from .rrr import rrr_table
     screws = _check_screws(screws, 4, "RRR")
     T, size = _task(screws)                                   # T[k]: position k+1 from 1
-    return rrr_table(screws, np.array(T), size)
+    return rrr_table(screws, T, size)
 
 
 def _row(family, variant, order, types, lines, residual, **extra):
@@ -349,7 +350,9 @@ def _flag_ill_conditioned(df: pd.DataFrame) -> pd.DataFrame:
     if not len(df) or "residual" not in df or "reason" not in df:
         return df
     res = df["residual"].to_numpy(float)
-    bad = (df["reason"].fillna("") == "").to_numpy() & ~(res <= REGULAR_RESIDUAL)
+    bad = ~(res <= REGULAR_RESIDUAL)
+    if bad.any():                   # (the reasons compared only then: a string column is slow)
+        bad &= (df["reason"].fillna("") == "").to_numpy()
     if bad.any():
         df = df.copy()
         df.loc[bad, "reason"] = [
@@ -380,8 +383,7 @@ def _inverse_family(fam, screws, choices):
         df = decomposed_dyads(rev, inverse_screws(screws), _verify=False, **ch)
     else:
         df = enumerate_dyads(rev, inverse_screws(screws), **ch)
-    T = np.stack([np.eye(4)] + [s.matrix() for s in screws])
-    _, _, reach = task_scale(T, [s.axis for s in screws], [s.point for s in screws])
+    T, reach = _task(screws)
     n = len(T)
     cols = list(df.columns)
     out = {c: df[c].to_numpy(copy=True) for c in cols}

@@ -98,11 +98,14 @@ def _rotmats(u, angle) -> np.ndarray:
     directions ``u (..., 3)`` (Rodrigues; broadcast)."""
     u, angle = np.asarray(u, float), np.asarray(angle, float)
     c, s = np.cos(angle)[..., None, None], np.sin(angle)[..., None, None]
-    K = np.zeros(u.shape[:-1] + (3, 3))
-    K[..., 0, 1], K[..., 0, 2] = -u[..., 2], u[..., 1]
-    K[..., 1, 0], K[..., 1, 2] = u[..., 2], -u[..., 0]
-    K[..., 2, 0], K[..., 2, 1] = -u[..., 1], u[..., 0]
-    return c * np.eye(3) + s * K + (1 - c) * (u[..., :, None] * u[..., None, :])
+    # the cross-product matrix of u, its entries picked from (0, u, −u)
+    K = np.concatenate([np.zeros(u.shape[:-1] + (1,)), u, -u], -1)[..., _SKEW]
+    return c * np.eye(3) + s * K.reshape(u.shape[:-1] + (3, 3)) + \
+        (1 - c) * (u[..., :, None] * u[..., None, :])
+
+
+#: the entries of the cross-product matrix [u]× in (0, u₀, u₁, u₂, −u₀, −u₁, −u₂), row by row
+_SKEW = np.array([0, 6, 2, 3, 0, 4, 5, 1, 0])
 
 
 def _rots(u, p, angle) -> np.ndarray:
@@ -456,12 +459,21 @@ def _links(H, ts, c, L, reach, Tn, Ti, T2, T3, acc, tol, w, err) -> _Solved:
 
 
 def _quat_matrices(q) -> np.ndarray:
-    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``q (..., 4)`` (w, x, y, z)."""
-    w, x, y, z = q[..., 0], q[..., 1], q[..., 2], q[..., 3]
-    return np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y),
-                     2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x),
-                     2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)],
-                    -1).reshape(q.shape[:-1] + (3, 3))
+    """Rotation matrices ``(..., 3, 3)`` of unit quaternions ``q (..., 4)`` (w, x, y, z): row
+    by row ``1 − 2 (y² + z²), 2 (xy − wz), 2 (xz + wy); 2 (xy + wz), 1 − 2 (x² + z²),
+    2 (yz − wx); 2 (xz − wy), 2 (yz + wx), 1 − 2 (x² + y²)``, from the products of the
+    components taken at once."""
+    P = (q[..., :, None] * q[..., None, :]).reshape(q.shape[:-1] + (16,))
+    M = 2 * (P[..., _QM_FIRST] + P[..., _QM_SECOND] * _QM_SIGN)
+    M[..., ::4] = 1 - M[..., ::4]
+    return M.reshape(q.shape[:-1] + (3, 3))
+
+
+#: the products q_i q_j (index 4 i + j) of the entries of _quat_matrices, and the sign of
+#: the second
+_QM_FIRST = np.array([10, 6, 7, 6, 5, 11, 7, 11, 5])
+_QM_SECOND = np.array([15, 3, 2, 3, 15, 1, 2, 1, 10])
+_QM_SIGN = np.array([1.0, -1, 1, 1, 1, -1, -1, 1, 1])
 
 
 def _translation_message(name: str, angle: float, slide: float) -> str:
@@ -593,9 +605,8 @@ def _factors(P2, P3):
     coeffs = np.stack([np.broadcast_to(_ONE, c1.shape), c1, c0], 1)   # t², t, 1
     prod = dq_mul(coeffs[:, :, None], dq_conj(coeffs)[:, None])       # (m, 3, 3, 8)
     Np = np.zeros((m, 5, 8))
-    for i in range(3):
-        for k in range(3):
-            Np[:, i + k] += prod[:, i, k]
+    for i in range(3):                  # each power's terms summed in the order of i
+        Np[:, i:i + 3] += prod[:, i]
     study_err = np.abs(Np[..., 4:]).max((1, 2)) / np.abs(Np[..., 0]).max(1)
     _first_error(err, study_err > 1e-8, lambda p: (
         f"rr_links: the interpolating motion leaves the Study quadric ({study_err[p]:.1e}); "

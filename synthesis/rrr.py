@@ -5,8 +5,8 @@ The three RR links through positions {1, j, n} are solved together by the core o
 :func:`synthesis.rr.rr_links`; the 18 transition axes (3 triples × 3 transition
 positions × 2 RR solutions, :func:`synthesis.rr.rotation_axis_between`), the joint 3
 angles at the last position, the 36 chains' canonical lines and joint values are
-arrays, the chains are verified in one bulk engine call
-(:func:`synthesis.verify.verify_chains`) and the table is built from its columns.
+arrays, the chains are verified in one bulk engine call from their joint frames
+(:func:`synthesis.verify.verify_frames`) and the table is built from its columns.
 """
 from __future__ import annotations
 
@@ -17,8 +17,7 @@ import pandas as pd
 
 from .dyads import DYAD_COLUMNS, _PITCH
 from .rr import _angles_about, _dot, _norm, _rotation_axes, _rots, _rr_solve
-from .screw import Line
-from .verify import verify_chains
+from .verify import _first_slot, line_frames, verify_frames
 
 __all__ = ["rrr_table"]
 
@@ -111,9 +110,9 @@ def rrr_table(screws: list, T: np.ndarray, reach: float) -> pd.DataFrame:
     residual = np.full(36, np.nan)
     idx = np.flatnonzero(ok)
     if idx.size:
-        residual[idx] = verify_chains(
-            [("RRR", [Line._exact(U[v, k], P[v, k]) for k in range(3)], jv[v]) for v in idx],
-            T, reach)
+        frames = line_frames(U[idx].reshape(-1, 3), P[idx].reshape(-1, 3), check=False)
+        residual[idx] = verify_frames("RRR", frames.reshape(-1, 3, 4, 4),
+                                      _first_slot(np.swapaxes(jv[idx], 0, 1)), 0.0, T, reach)
     return _table(ok, reason, U, P, jv, residual)
 
 
@@ -165,11 +164,14 @@ def _joint_values(fa, ma, fa_s, phi, beta):
 @functools.lru_cache(maxsize=1)
 def _constant_strings() -> dict:
     """The table's string columns that every task shares (family, order, arrangement,
-    transition, joint types, mechanism), as the pandas arrays its constructor infers from
-    them: built once (the constructor copies them into each table)."""
+    transition, joint types, mechanism) and those of a table whose variants are all
+    regular (reason, main_link, main_positions), as the pandas arrays its constructor
+    infers from them: built once (each table gets copies)."""
     n = len(_ORDER)
     cols = {"family": np.full(n, "RRR", object), "order": _ORDER, "arrangement": _MECH,
-            "transition": np.full(n, "RR", object), "mechanism": _MECH}
+            "transition": np.full(n, "RR", object), "mechanism": _MECH,
+            "reason": np.full(n, "", object), "main_link": np.full(n, "RR", object),
+            "main_positions": _MAIN}
     cols.update({f"j{k}_type": np.full(n, "R", object) for k in (1, 2, 3)})
     return {c: pd.Series(v).array for c, v in cols.items()}
 
@@ -177,24 +179,29 @@ def _constant_strings() -> dict:
 def _table(ok, reason, U, P, jv, residual) -> pd.DataFrame:
     """The table from the variants' columns (order and dtypes as :func:`pandas.DataFrame`
     gives them for the rows one by one: failed rows have NaN geometry and no
-    ``main_link … q`` entries)."""
+    ``main_link … q`` entries; ``reason`` is empty where ``ok``), the strings already the
+    arrays the constructor would store (its string dtype)."""
     n = len(ok)
-    cols = dict(_constant_strings(), variant=np.arange(1, n + 1))
+    const = _constant_strings()
+    cols = {c: a.copy() for c, a in const.items()}
+    if not ok.all():                # the failed variants' strings, as the constructor infers them
+        string, nan = const["family"].dtype, np.full(n, np.nan, object)
+        cols.update(reason=pd.array(reason, dtype=string),
+                    main_link=pd.array(np.where(ok, "RR", nan), dtype=string),
+                    main_positions=pd.array(np.where(ok, _MAIN, nan), dtype=string))
+    cols["variant"] = np.arange(1, n + 1)
     geo = np.concatenate([U, P], -1).reshape(n, 18)                     # per joint u, p
     geo[~ok] = np.nan
     for k in (1, 2, 3):
         cols[f"j{k}_pitch"] = np.full(n, _PITCH["R"])
     cols.update(zip(_JOINT, geo.T))
-    cols.update(residual=residual, reason=reason, rr=_RR.copy())
+    cols.update(residual=residual, rr=_RR.copy())
     if ok.any():
-        nan = np.full(n, np.nan, object)
-        cols["main_link"] = np.where(ok, "RR", nan)
-        cols["main_positions"] = np.where(ok, _MAIN, nan)
         cols["transition_position"] = _TRANSITION.copy() if ok.all() else \
             np.where(ok, _TRANSITION, np.nan)
         q = jv.reshape(n, 12).copy()
         q[~ok] = np.nan
         cols.update(zip(_Q, q.T))
-    order = (_FAILED_FIRST if not ok[0] else _REGULAR_FIRST) + \
-        ([c for c in _EXTRA + _Q if c in cols])
-    return pd.DataFrame({c: cols[c] for c in order})
+    order = (_REGULAR_FIRST if ok[0] else _FAILED_FIRST) + (_EXTRA + _Q if ok.any() else [])
+    return pd.DataFrame({c: cols[c] for c in order}, copy=False)
+

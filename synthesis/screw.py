@@ -135,11 +135,7 @@ class Screw:
 
     def matrix(self) -> np.ndarray:
         """4x4 transform ``x ↦ R (x − c) + c + slide · axis``."""
-        R = rotation(self.axis, self.angle)
-        T = np.eye(4)
-        T[:3, :3] = R
-        T[:3, 3] = self.point - R @ self.point + self.slide * self.axis
-        return T
+        return _matrices([self])[0]
 
     @classmethod
     def from_matrix(cls, T, tol: float = 1e-12) -> "Screw":
@@ -191,6 +187,20 @@ class Screw:
 
     def inverse(self) -> "Screw":
         return Screw(self.axis, self.point, -self.angle, -self.slide)
+
+
+def _matrices(screws) -> np.ndarray:
+    """:meth:`Screw.matrix` of many screws ``(n, 4, 4)``, in one vectorised pass (each
+    screw's matrix the same, bit for bit, as alone)."""
+    axis = np.array([s.axis for s in screws]).reshape(-1, 3)
+    point = np.array([s.point for s in screws]).reshape(-1, 3)
+    R = rotation(axis, np.array([s.angle for s in screws], float))
+    T = np.zeros((len(axis), 4, 4))
+    T[:, :3, :3] = R
+    T[:, :3, 3] = point - (R @ point[..., None])[..., 0] + \
+        np.array([s.slide for s in screws], float)[:, None] * axis
+    T[:, 3, 3] = 1.0
+    return T
 
 
 def relative_screw(s1j: Screw, s1k: Screw) -> Screw:

@@ -18,25 +18,23 @@ its digits), springs and dampers on joint coordinates mapped through the first a
 the dampers' power and the gravity and spring energies.
 
 Forward dynamics' right-hand side (:meth:`closure.Dynamics.simulate`,
-:class:`closure.integrate.PoseTracker`) is three compiled calls: ``step`` task
-``PREDICT`` moves the last solved pose along its tangent to the new inputs, the position
-solver's Newton corrects it (:func:`closure.solve_kernels.drive`, task ``NEWTON``: the
-iterations, tolerances and convergence test of :func:`closure.solver.newton`, one
-implementation for both), and task ``RHS`` judges the corrected pose (closed, its
-condition against the limit above which the dynamics are taken as their limit along the
-branch), forms the terms there and ``M⁻¹ (Q − h)`` with ``M⁻¹`` (the caller adds drives
-and given joint forces as ``M⁻¹ F``) and moves the tracker on; task ``TRACK`` judges
-without the terms (the integrator's step poses).  What the kernel cannot settle it
-reports instead (a pose that does not close, a near-singular one, a non-finite force, a
-mass matrix without a Cholesky factor) and the caller takes the pose-by-pose path.
-Batched forward dynamics (:func:`closure.batch_dynamics.simulate_batch`: B trajectories
-in lockstep) runs the same steps per stage for all its members in one call: task
-``BATCH_STAGE`` (:func:`_batch_stage`) gives each member in turn ``PREDICT`` (with a
-second-order term along the member's last rates), the solver's Newton
-(:func:`closure.solve_kernels._newton`, the function ``drive`` runs) and ``RHS``, whose
-terms then take the Newton's last factorisation of the loop Jacobian instead of forming
-and factoring it again; :func:`nearest_poses` keeps each member's solved pose nearest
-every output time.
+:class:`closure.integrate.PoseTracker`) is one compiled call, ``step`` task ``RHS``
+(:func:`_stage`): the last solved pose moved along its tangent to the new inputs (plus a
+second-order term along the last rates), corrected by the position solver's Newton
+(:func:`closure.solve_kernels._newton`: the iterations, tolerances and convergence test
+of :func:`closure.solver.newton`, one implementation for both), the corrected pose judged
+(closed, its condition against the limit above which the dynamics are taken as their
+limit along the branch), the terms formed there, with the Newton's last factorisation of
+the loop Jacobian where it is the pose's, and ``M⁻¹ (Q − h)`` with ``M⁻¹`` (the caller
+adds drives and given joint forces as ``M⁻¹ F``), and the tracker moved on.  The
+integrator's step poses take task ``PREDICT``, the solver's Newton
+(:func:`closure.solve_kernels.drive`, task ``NEWTON``) and task ``TRACK``, which judges
+without the terms.  What the kernel cannot settle it reports instead (a pose that does
+not close, a near-singular one, a non-finite force, a mass matrix without a Cholesky
+factor) and the caller takes the pose-by-pose path.  Batched forward dynamics
+(:func:`closure.batch_dynamics.simulate_batch`: B trajectories in lockstep) runs task
+``RHS`` for all its members in one call, each on its own by the same code;
+:func:`nearest_poses` keeps each member's solved pose nearest every output time.
 
 The mechanism's structure comes packed by :func:`closure.solve_kernels.pack`; the
 dynamics' own data by :func:`pack` here, into ``DI`` (int64: counts, offsets, each
@@ -70,7 +68,7 @@ from .solve_kernels import (_JIT, F_COLSC, F_ROWMAP, H_NC, H_NJ, H_NL, H_NV, O_I
 from .solve_kernels import _evaluate as _evaluate_state
 
 __all__ = ["pack", "layout", "options", "step", "PREDICT", "TRACK", "RHS", "TERMS",
-           "BATCH_STAGE", "nearest_poses", "OK",
+           "nearest_poses", "OK",
            "NOT_CLOSED", "SINGULAR", "NON_FINITE", "NOT_SPD"]
 
 
@@ -391,7 +389,7 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
 
 # ---------------------------------------------------------------------- the entry kernel
 #: tasks of :func:`step`
-PREDICT, TRACK, RHS, TERMS, BATCH_STAGE = 0, 1, 2, 3, 4
+PREDICT, TRACK, RHS, TERMS = 0, 1, 2, 3
 
 # iopt: the solver's maxiter, the expected rank, Newton's task code, 0 (the solver's
 # ``have``), then the offsets of the fields of a member's block of ``buf`` and its size
@@ -524,26 +522,25 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
       iterations, exact condition number (truncated SVD where the solver took the
       Cholesky path), converged, closed (converged and residual at most ``fopts[1]``);
       where it closed it becomes the base (``bq``, ``brot``, ``bx``).
-    * ``RHS``: as ``TRACK`` (the condition number computed only where the estimate
-      exceeds ``fopts[8]``), then the terms at the pose (:func:`_terms`, link poses
-      ``link``, twists ``S``) at rates ``y[ni:2 ni]``, the pose's coordinates into the
-      block's ``q``; on a regular pose the first analogs become the ``tangent``, and
-      ``out`` = (ẋ, M⁻¹ (Q − h), dampers' power, 0) with ``Minv`` (:func:`_pose_rhs`).
+    * ``RHS``: the right-hand side of B ≥ 1 trajectories (:func:`_stage`; ``q`` ...
+      ``flag`` unused): for member b (base pose, inputs and tangent stacked in ``bq``
+      (B·nq), ``brot`` (B·ns, 3, 3), ``bx`` (B·ni) and ``tangent`` (B·nv, ni), its state in
+      ``y`` (B·(2 ni + 2)), its fields in block b of ``buf``) ``PREDICT`` with a
+      second-order term, the solver's Newton, the pose judged as ``TRACK`` (the
+      condition number computed only where the estimate exceeds ``fopts[8]``), then the
+      terms at the pose at rates ``y[ni:2 ni]``, the pose's coordinates into the block's
+      ``q``; on a regular pose the first analogs become the ``tangent``, and ``out`` =
+      (ẋ, M⁻¹ (Q − h), dampers' power, 0) with ``Minv``; its code in the block's ``code``.
     * ``TERMS``: :func:`_terms` for every pose ``q`` (B, nq), ``rot`` of a batch at rates
       ``y`` (B·ni), member b's fields in block b of ``buf`` (``link``, ``S`` unused);
       ``fig[FIG_COND]`` gets the condition estimate (or the condition).
-    * ``BATCH_STAGE``: ``PREDICT``, the solver's Newton and ``RHS`` for every member of a
-      batch of trajectories (:func:`_batch_stage`; ``q`` ... ``flag`` unused): member b's
-      base pose, inputs and tangent stacked in ``bq`` (B·nq), ``brot`` (B·ns, 3, 3),
-      ``bx`` (B·ni) and ``tangent`` (B·nv, ni), its state in ``y`` (B·(2 ni + 2)), its
-      fields in block b of ``buf``; returns the number of members whose code is not
-      :data:`OK`.
 
-    ``fopts``, ``iopt``: :func:`options`.  Returns :data:`OK`, or for ``TRACK`` and ``RHS``
-    :data:`NOT_CLOSED` (the base kept), :data:`SINGULAR` (the pose's condition exceeds
-    ``fopts[8]``: the base moved, the tangent and the acceleration are the caller's),
-    :data:`NON_FINITE` (``Q − h`` not finite) or :data:`NOT_SPD` (no Cholesky factor of
-    ``M``) (the base and tangent moved, the terms written)."""
+    ``fopts``, ``iopt``: :func:`options`.  Returns :data:`OK` (``PREDICT``, ``TERMS``), the
+    number of members whose code is not OK (``RHS``), or ``TRACK``'s code.  Codes:
+    :data:`OK`, :data:`NOT_CLOSED` (the base kept), :data:`SINGULAR` (the pose's condition
+    exceeds ``fopts[8]``: the base moved, the tangent and the acceleration are the
+    caller's), :data:`NON_FINITE` (``Q − h`` not finite) or :data:`NOT_SPD` (no Cholesky
+    factor of ``M``) (the base and tangent moved, the terms written)."""
     ni = icols.shape[0]
     nv, nu = PI[H_NV], ucols.shape[0]
     if task == PREDICT:                 # the batch-of-one member 0
@@ -551,9 +548,9 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
         _predict(PI, PF, bq, brot, bx, tangent, y, q[0], rot[0], np.zeros(nv),
                  np.zeros((1, 3, 3)), buf[o_qdd:o_qdd + nv], 0.0)
         return OK
-    if task == BATCH_STAGE:
-        return _batch_stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx,
-                            tangent, y, buf)
+    if task == RHS:
+        return _stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y,
+                      buf)
     rank = iopt[I_RANK]
     blk = iopt[B_SIZE]
     o_M, o_h, o_Q, o_f, o_qd, o_en, o_fig = iopt[B_M], iopt[B_H], iopt[B_Q], iopt[B_FIRST], \
@@ -579,13 +576,6 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
             buf[o + o_fig + FIG_COND] = bound
         _keep_alive(owned)
         return OK
-    if task == RHS:                     # the batch-of-one member 0
-        code = _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q[0], rot[0], link[0],
-                         S[0], res[0], cond[0], its[0], flag[0], bq, brot, bx, tangent, y,
-                         buf, wk, qdd, nofac)
-        buf[iopt[B_CODE]] = code
-        _keep_alive(owned)
-        return code
     # TRACK: the solver's corrected state of one pose, judged
     conv = flag[0] != 0
     closed = conv and res[0] <= fopts[1]
@@ -606,7 +596,7 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
 @numba.njit(inline="always", **_JIT)
 def _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, cond, its, flag,
               bq, brot, bx, tangent, y, buf, wk, qdd, fac):
-    """Task ``RHS`` of :func:`step` for one corrected pose: its stored coordinates ``q``
+    """Task ``RHS`` of :func:`step` at one corrected pose: its stored coordinates ``q``
     (nq,), ``rot`` (ns, 3, 3), link poses ``link`` (nl, 4, 4), twists ``S`` (nv, 6) and the
     solver's figures ``res``, ``cond``, ``its``, ``flag`` (scalars) judged into the
     block ``buf`` (:func:`layout`), the terms there at rates ``y[ni:2 ni]``, the base
@@ -678,20 +668,19 @@ def _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, c
 
 
 @_njit
-def _batch_stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y, buf):
-    """Task ``BATCH_STAGE`` of :func:`step`: one stage of every member b of a batch of
-    trajectories (:func:`closure.batch_dynamics.simulate_batch`), each on its own, in one
-    pass: the member's base pose moved along its tangent to the stage's inputs with the
+def _stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y, buf):
+    """Task ``RHS`` of :func:`step`: the right-hand side of every member b of B
+    trajectories (one: :meth:`closure.Dynamics.simulate`; B:
+    :func:`closure.batch_dynamics.simulate_batch`), each on its own, in one pass: the
+    member's base pose moved along its tangent to the stage's inputs with the
     second-order term along its last rates (:func:`_predict`, :func:`_curvature`),
-    corrected by the solver's Newton (:func:`closure.solve_kernels._newton`, the
-    iterations, tolerances and convergence test of ``PREDICT``'s Newton, here in
-    scratch), then judged and the terms formed as task ``RHS`` (:func:`_pose_rhs`) with
-    the Newton's last factorisation where it is the pose's and dense (one loop), so the
-    Jacobian is not formed and factored twice.  Member b's base pose, inputs and tangent
-    are stacked in ``bq`` (B·nq), ``brot`` (B·ns, 3, 3), ``bx`` (B·ni) and ``tangent``
-    (B·nv, ni), its state in ``y`` (B·(2 ni + 2)), its fields in block b of ``buf``, its
-    code (as ``RHS``) in the block's ``code``.  Returns the number of members whose code
-    is not :data:`OK`."""
+    corrected by the solver's Newton (:func:`closure.solve_kernels._newton`, in scratch),
+    then judged and the terms formed (:func:`_pose_rhs`) with the Newton's last
+    factorisation where it is the pose's and dense (one loop), so the Jacobian is not
+    formed and factored twice.  Member b's base pose, inputs and tangent are stacked in
+    ``bq`` (B·nq), ``brot`` (B·ns, 3, 3), ``bx`` (B·ni) and ``tangent`` (B·nv, ni), its
+    state in ``y`` (B·(2 ni + 2)), its fields in block b of ``buf``, its code in the
+    block's ``code``.  Returns the number of members whose code is not :data:`OK`."""
     ni, nu, rank, maxiter = icols.shape[0], ucols.shape[0], iopt[I_RANK], iopt[I_MAXITER]
     nv, nj, nl, nc = PI[H_NV], PI[H_NJ], PI[H_NL], PI[H_NC]
     mm, blk, o_qdd, o_code = 2 * ni + 2, iopt[B_SIZE], iopt[B_QDD], iopt[B_CODE]

@@ -79,10 +79,11 @@ class PoseTracker:
     The last pose is kept as arrays (``q``, ``rot``, inputs ``x``; its figures in
     ``fig``) with the tangent ``first`` (nv, ni), all updated in place by the compiled
     kernels: :func:`closure.dynamics_kernels.step` predicts, the solver's Newton
-    (:func:`closure.solve_kernels.drive`) corrects, ``step`` judges and moves the base
-    (here, and in forward dynamics' right-hand side with the terms at the pose:
-    ``dynamics`` = the ``(DI, DF)`` of :func:`closure.dynamics_kernels.pack`).
-    ``pose`` is the :class:`Pose` of those arrays."""
+    (:func:`closure.solve_kernels.drive`) corrects, ``step`` judges and moves the base;
+    forward dynamics' right-hand side is all of it and the terms at the pose in one call
+    (``step`` task ``RHS``; ``dynamics`` = the ``(DI, DF)`` of
+    :func:`closure.dynamics_kernels.pack`).  ``pose`` is the :class:`Pose` of those
+    arrays."""
 
     def __init__(self, mech, pose: Pose, opts: SolverOptions, direction, dynamics=None):
         from . import dynamics_kernels as dk
@@ -106,6 +107,7 @@ class PoseTracker:
         #: residual, iterations, condition (NaN: at most RHS_COND, not computed), converged,
         #: closed: of the last pose the kernels solved
         self.fig = self.buf[o:o + 5]
+        self._code = self.layout["code"]
         self._pose: Pose | None = pose
         # the solver's batch-of-one state, corrected in place by its Newton
         ns, nj, nl, nc = plan.ns, plan.nj, plan.nl, plan.chords.size
@@ -157,9 +159,13 @@ class PoseTracker:
         array; ``task`` TRACK or RHS of :func:`closure.dynamics_kernels.step`, whose code
         is returned); the base moves unless the pose does not close."""
         k = self._k
-        k.step(k.PREDICT, *self.step_args, y, self.buf)
-        self._newton(*self._newton_args)
-        code = k.step(task, *self.step_args, y, self.buf)
+        if task == k.RHS:                   # one call: predictor, Newton, terms
+            code = int(self.buf[self._code]) if k.step(k.RHS, *self.step_args, y, self.buf) \
+                else k.OK
+        else:
+            k.step(k.PREDICT, *self.step_args, y, self.buf)
+            self._newton(*self._newton_args)
+            code = k.step(task, *self.step_args, y, self.buf)
         if code != k.NOT_CLOSED:
             self._pose = None
         return code

@@ -139,36 +139,47 @@ def pack(plan, mech, tree):
 
 
 # ---------------------------------------------------------------------- small rigid algebra
-# The helpers take whole arrays and indices rather than views: a view costs two atomic
-# reference-count updates, several times a 4x4 product's own work.
-@numba.njit(**_JIT)
-def _rigid_mul(A, ia, B, ib, out, io):
-    """``out[io] = A[ia] @ B[ib]`` for rigid transforms (last rows 0 0 0 1; ``out[io]``
-    is neither operand)."""
-    for i in range(3):
-        a0, a1, a2, a3 = A[ia, i, 0], A[ia, i, 1], A[ia, i, 2], A[ia, i, 3]
-        for j in range(3):
-            out[io, i, j] = a0 * B[ib, 0, j] + a1 * B[ib, 1, j] + a2 * B[ib, 2, j]
-        out[io, i, 3] = a0 * B[ib, 0, 3] + a1 * B[ib, 1, 3] + a2 * B[ib, 2, 3] + a3
-    out[io, 3, 0] = 0.0
-    out[io, 3, 1] = 0.0
-    out[io, 3, 2] = 0.0
-    out[io, 3, 3] = 1.0
+# A rigid transform is carried as the 12 values of its top three rows (a tuple: registers,
+# not memory), read from and written to whole arrays at an index (a view costs two atomic
+# reference-count updates, several times a 4x4 product's own work); a chain of products
+# then keeps its intermediate transforms out of memory.
+@numba.njit(inline="always", **_JIT)
+def _rigid(T, it):
+    """The top three rows of the rigid transform ``T[it]``, row by row (12 values)."""
+    return (T[it, 0, 0], T[it, 0, 1], T[it, 0, 2], T[it, 0, 3],
+            T[it, 1, 0], T[it, 1, 1], T[it, 1, 2], T[it, 1, 3],
+            T[it, 2, 0], T[it, 2, 1], T[it, 2, 2], T[it, 2, 3])
 
 
-@numba.njit(**_JIT)
-def _rigid_inv(T, it, out, io):
-    """``out[io] = T[it]⁻¹`` of a rigid transform."""
-    for i in range(3):
-        for j in range(3):
-            out[io, i, j] = T[it, j, i]
-    for i in range(3):
-        out[io, i, 3] = -(T[it, 0, i] * T[it, 0, 3] + T[it, 1, i] * T[it, 1, 3] +
-                          T[it, 2, i] * T[it, 2, 3])
-    out[io, 3, 0] = 0.0
-    out[io, 3, 1] = 0.0
-    out[io, 3, 2] = 0.0
-    out[io, 3, 3] = 1.0
+@numba.njit(inline="always", **_JIT)
+def _rigid_put(t, out, io):
+    """``out[io]``: the rigid transform of the 12 values ``t`` (:func:`_rigid`)."""
+    out[io, 0, 0], out[io, 0, 1], out[io, 0, 2], out[io, 0, 3] = t[0], t[1], t[2], t[3]
+    out[io, 1, 0], out[io, 1, 1], out[io, 1, 2], out[io, 1, 3] = t[4], t[5], t[6], t[7]
+    out[io, 2, 0], out[io, 2, 1], out[io, 2, 2], out[io, 2, 3] = t[8], t[9], t[10], t[11]
+    out[io, 3, 0], out[io, 3, 1], out[io, 3, 2], out[io, 3, 3] = 0.0, 0.0, 0.0, 1.0
+
+
+@numba.njit(inline="always", **_JIT)
+def _rigid_mul(a, b):
+    """``a @ b`` of rigid transforms given as 12 values (:func:`_rigid`)."""
+    a00, a01, a02, a03, a10, a11, a12, a13, a20, a21, a22, a23 = a
+    b00, b01, b02, b03, b10, b11, b12, b13, b20, b21, b22, b23 = b
+    return (a00 * b00 + a01 * b10 + a02 * b20, a00 * b01 + a01 * b11 + a02 * b21,
+            a00 * b02 + a01 * b12 + a02 * b22, a00 * b03 + a01 * b13 + a02 * b23 + a03,
+            a10 * b00 + a11 * b10 + a12 * b20, a10 * b01 + a11 * b11 + a12 * b21,
+            a10 * b02 + a11 * b12 + a12 * b22, a10 * b03 + a11 * b13 + a12 * b23 + a13,
+            a20 * b00 + a21 * b10 + a22 * b20, a20 * b01 + a21 * b11 + a22 * b21,
+            a20 * b02 + a21 * b12 + a22 * b22, a20 * b03 + a21 * b13 + a22 * b23 + a23)
+
+
+@numba.njit(inline="always", **_JIT)
+def _rigid_inv(t):
+    """The inverse of the rigid transform given as 12 values (:func:`_rigid`)."""
+    r00, r01, r02, p0, r10, r11, r12, p1, r20, r21, r22, p2 = t
+    return (r00, r10, r20, -(r00 * p0 + r10 * p1 + r20 * p2),
+            r01, r11, r21, -(r01 * p0 + r11 * p1 + r21 * p2),
+            r02, r12, r22, -(r02 * p0 + r12 * p1 + r22 * p2))
 
 
 @numba.njit(**_JIT)
@@ -222,7 +233,7 @@ def _log_so3(R, ir, out):
         out[0], out[1], out[2] = a0 * sg * th, a1 * sg * th, a2 * sg * th
 
 
-@numba.njit(**_JIT)
+@numba.njit(inline="always", **_JIT)
 def _rot_log(R, ir, out):
     """Rotation vector ``out`` (3,) of the rotation ``R[ir, :3, :3]`` below a quarter turn
     (as :func:`closure.state._rot_log`); returns ``(θ, θ², sin θ)``, or θ = −1 (``out``
@@ -244,7 +255,7 @@ def _rot_log(R, ir, out):
     return th, th2, s_
 
 
-@numba.njit(**_JIT)
+@numba.njit(inline="always", **_JIT)
 def _loop_log(G, ig, r, ir, w):
     """``r[ir]``: the twist ``(v, ω)``, ``log`` of the loop transform ``G[ig]`` (as
     :func:`closure.state._loop_log`, with :func:`closure.frames._log_se3` past a quarter
@@ -350,7 +361,7 @@ def _evaluate(PI, PF, PM, q, rot, A, link, fa, r, S, T, w3):
     (nj, 4, 4), ``r`` (nc, 6) and ``S`` (nv, 6) overwritten
     (:meth:`closure.state.Plan.evaluate`); ``T`` (3, 4, 4) and ``w3`` (3,) scratch."""
     nj, nc = PI[H_NJ], PI[H_NC]
-    t0, t1, t2 = np.int64(0), np.int64(1), np.int64(2)  # T's slots, not literals (one compile)
+    t2 = np.int64(2)                    # T's slot of the loop transform
     o_kind, o_qoff, o_sidx, o_pitch, o_um = PI[O_KIND], PI[O_QOFF], PI[O_SIDX], PI[F_PITCH], \
         PI[F_UMID]
     # joint matrices
@@ -392,18 +403,14 @@ def _evaluate(PI, PF, PM, q, rot, A, link, fa, r, S, T, w3):
     o_tli, o_tpl, o_tj, o_tfwd = PI[O_TLI], PI[O_TPL], PI[O_TJ], PI[O_TFWD]
     m_tl, m_tr = PI[M_TL], PI[M_TR]
     for k in range(PI[H_NL] - 1):
-        j = PI[o_tj + k]
-        if PI[o_tfwd + k]:
-            _rigid_mul(PM, m_tl + k, A, j, T, t0)
-        else:
-            _rigid_inv(A, j, T, t1)
-            _rigid_mul(PM, m_tl + k, T, t1, T, t0)
+        aj = _rigid(A, PI[o_tj + k])
+        if not PI[o_tfwd + k]:
+            aj = _rigid_inv(aj)
+        t = _rigid_mul(_rigid_mul(_rigid(PM, m_tl + k), aj), _rigid(PM, m_tr + k))
         li, pl = PI[o_tli + k], PI[o_tpl + k]
-        if pl == 0:
-            _rigid_mul(T, t0, PM, m_tr + k, link, li)
-        else:
-            _rigid_mul(T, t0, PM, m_tr + k, T, t1)
-            _rigid_mul(link, pl, T, t1, link, li)
+        if pl != 0:
+            t = _rigid_mul(_rigid(link, pl), t)
+        _rigid_put(t, link, li)
     o_jla, m_fa = PI[O_JLA], PI[M_FA]
     for j in range(nj):
         la = PI[o_jla + j]
@@ -413,23 +420,21 @@ def _evaluate(PI, PF, PM, q, rot, A, link, fa, r, S, T, w3):
                     fa[j, a, b] = PM[m_fa + j, a, b]
             fa[j, 3, 0], fa[j, 3, 1], fa[j, 3, 2], fa[j, 3, 3] = 0.0, 0.0, 0.0, 1.0
         else:
-            _rigid_mul(link, la, PM, m_fa + j, fa, j)
+            _rigid_put(_rigid_mul(_rigid(link, la), _rigid(PM, m_fa + j)), fa, j)
     # loops: G = F_a A F_b⁻¹ T_b⁻¹ about the centre, and its log
     o_cj, o_clb, m_cf, o_c = PI[O_CJ], PI[O_CLB], PI[M_CFBI], PI[F_CENTRE]
     c0, c1, c2 = PF[o_c], PF[o_c + 1], PF[o_c + 2]
     for k in range(nc):
         c = PI[o_cj + k]
-        _rigid_mul(fa, c, A, c, T, t0)
-        _rigid_mul(T, t0, PM, m_cf + k, T, t1)
-        _rigid_inv(link, PI[o_clb + k], T, t0)
-        _rigid_mul(T, t1, T, t0, T, t2)
+        t = _rigid_mul(_rigid_mul(_rigid(fa, c), _rigid(A, c)), _rigid(PM, m_cf + k))
+        _rigid_put(_rigid_mul(t, _rigid_inv(_rigid(link, PI[o_clb + k]))), T, t2)
         for a in range(3):
             T[2, a, 3] += (T[2, a, 0] * c0 + T[2, a, 1] * c1 + T[2, a, 2] * c2) - PF[o_c + a]
         _loop_log(T, t2, r, k, w3)
     _twists(PI, PF, q, fa, S)
 
 
-@numba.njit(**_JIT)
+@numba.njit(inline="always", **_JIT)
 def _twists(PI, PF, q, fa, S):
     """World twists ``S`` (nv, 6) of the velocity coordinates from the joint frames ``fa``:
     ``ω = s_w R e_kw`` (a U joint's second pin: ``R Rz(φ) umid e_z``), ``v = p × ω +
@@ -482,17 +487,16 @@ def _scaled_residual(r, scale, out):
     return big
 
 
-@numba.njit(**_JIT)
-def _twist_row(PF, o_rm, S, c, s):
-    """Entry ``s`` of the dimensionless twist about the centre of column ``c`` of the
-    twists ``S``: ``Σ_t row_map[s, t] S[c, t]`` for the row map at ``PF[o_rm]``, which maps
+@numba.njit(inline="always", **_JIT)
+def _twist_rows(PF, o_rm, S, c):
+    """The dimensionless twist about the centre of column ``c`` of the twists ``S``, six
+    values: ``Σ_t row_map[s, t] S[c, t]`` for the row map at ``PF[o_rm]``, which maps
     ``(v, ω)`` to ``((v + ω × c) / L, ω)`` (:class:`closure.state.Plan`): its entries known
     to be zero or one are not multiplied out (the same values)."""
-    if s >= 3:
-        return S[c, s]
-    o = o_rm + 6 * s
-    a, b = (4, 5) if s == 0 else ((3, 5) if s == 1 else (3, 4))
-    return S[c, s] * PF[o + s] + S[c, a] * PF[o + a] + S[c, b] * PF[o + b]
+    s0, s1, s2, s3, s4, s5 = S[c, 0], S[c, 1], S[c, 2], S[c, 3], S[c, 4], S[c, 5]
+    return (s0 * PF[o_rm] + s4 * PF[o_rm + 4] + s5 * PF[o_rm + 5],
+            s1 * PF[o_rm + 7] + s3 * PF[o_rm + 9] + s5 * PF[o_rm + 11],
+            s2 * PF[o_rm + 14] + s3 * PF[o_rm + 15] + s4 * PF[o_rm + 16], s3, s4, s5)
 
 
 @numba.njit(**_JIT)
@@ -503,10 +507,15 @@ def _scaled_jacobian(PI, PF, S, cols, J):
     nc, nv, o_rm, o_lp = PI[H_NC], PI[H_NV], PI[F_ROWMAP], PI[F_LOOP]
     for k in range(cols.shape[0]):
         c = cols[k]
-        for s in range(6):
-            v = _twist_row(PF, o_rm, S, c, s)
-            for lp in range(nc):
-                J[6 * lp + s, k] = PF[o_lp + nv * lp + c] * v
+        v0, v1, v2, v3, v4, v5 = _twist_rows(PF, o_rm, S, c)
+        for lp in range(nc):
+            f = PF[o_lp + nv * lp + c]
+            J[6 * lp, k] = f * v0
+            J[6 * lp + 1, k] = f * v1
+            J[6 * lp + 2, k] = f * v2
+            J[6 * lp + 3, k] = f * v3
+            J[6 * lp + 4, k] = f * v4
+            J[6 * lp + 5, k] = f * v5
 
 
 @numba.njit(**_JIT)
@@ -563,10 +572,11 @@ def _distance(PI, PF, qa, rota, qb, rotb, out, R3, w3):
 
 
 # ---------------------------------------------------------------------- least squares
-@numba.njit(**_JIT)
+@numba.njit(inline="always", **_JIT)
 def _cholesky(G, L, k):
     """The Cholesky factor ``L`` (lower triangle written) of ``G[:k, :k]`` (lower triangle
-    read); False when ``G`` is not positive definite."""
+    read); False when ``G`` is not positive definite (inlined: a ``k`` known when compiled
+    unrolls its loops)."""
     for j in range(k):
         d = G[j, j]
         for t in range(j):
@@ -583,18 +593,9 @@ def _cholesky(G, L, k):
     return True
 
 
-@numba.njit(**_JIT)
-def _factor(J, rank, G, L, Linv, Ginv):
-    """Cholesky path of the minimum-norm solve of ``J`` (m, n) truncated to ``rank``:
-    the Gram matrix ``G`` (``J Jᵀ`` wide, ``Jᵀ J`` tall) factored, ``Ginv = G⁻¹``.
-
-    Returns ``(fast, sqrt(tr G⁻¹))``; ``fast`` is False (the SVD path) when the expected
-    rank is below ``min(m, n)``, the factorisation fails or the condition estimate
-    ``sqrt(‖J‖²_F · tr G⁻¹)`` (≥ s_max / s_min) exceeds ``FAST_COND``."""
-    m, n = J.shape
-    k = min(m, n)
-    if k == 0 or min(rank, k) != k:
-        return False, 0.0
+@numba.njit(inline="always", **_JIT)
+def _factor_k(J, G, L, Linv, Ginv, m, n, k):
+    """:func:`_factor` of ``J`` (m, n), ``k = min(m, n)`` > 0, past its rank test."""
     if m < n:                                           # wide: G = J Jᵀ
         for i in range(k):
             for j in range(i + 1):
@@ -640,6 +641,25 @@ def _factor(J, rank, G, L, Linv, Ginv):
             Ginv[i, j] = s
             Ginv[j, i] = s
     return True, math.sqrt(tr_inv)
+
+
+@numba.njit(**_JIT)
+def _factor(J, rank, G, L, Linv, Ginv):
+    """Cholesky path of the minimum-norm solve of ``J`` (m, n) truncated to ``rank``:
+    the Gram matrix ``G`` (``J Jᵀ`` wide, ``Jᵀ J`` tall) factored, ``Ginv = G⁻¹``.
+
+    Returns ``(fast, sqrt(tr G⁻¹))``; ``fast`` is False (the SVD path) when the expected
+    rank is below ``min(m, n)``, the factorisation fails or the condition estimate
+    ``sqrt(‖J‖²_F · tr G⁻¹)`` (≥ s_max / s_min) exceeds ``FAST_COND``.  A Gram matrix of
+    one loop's six rows (k = 6) has its own copy of :func:`_factor_k`, compiled with k
+    known (its short loops unrolled: about half the time; the same operations)."""
+    m, n = J.shape
+    k = min(m, n)
+    if k == 0 or min(rank, k) != k:
+        return False, 0.0
+    if k == 6:
+        return _factor_k(J, G, L, Linv, Ginv, m, n, 6)
+    return _factor_k(J, G, L, Linv, Ginv, m, n, k)
 
 
 @numba.njit(**_JIT)
@@ -911,11 +931,10 @@ def _sp_jacobian(PI, PF, S, cols, P, Jv):
         e0, e1 = P[o_cptr + k], P[o_cptr + k + 1]
         if e0 == e1:
             continue
-        c = cols[k]
+        v = _twist_rows(PF, o_rm, S, cols[k])
         for s in range(6):
-            v = _twist_row(PF, o_rm, S, c, s)
             for e in range(e0, e1):
-                Jv[6 * e + s] = PF[o_lp + nv * P[o_clp + e] + c] * v
+                Jv[6 * e + s] = PF[o_lp + nv * P[o_clp + e] + cols[k]] * v[s]
 
 
 @numba.njit(**_JIT)
@@ -1159,29 +1178,11 @@ def _sp_inv_smin(P, fast, inv0, above, W):
 # A full envelope (a mechanism of one loop) gains nothing from the block structure and
 # loses to its indirection: the dense kernels above then serve, on the dense Jacobian, with
 # the solves taken one right-hand side at a time (the same values as :func:`_lsq_solve`).
-@numba.njit(**_JIT)
-def _dn_solve(J, fast, Wd, R, X, c):
-    """Column ``c`` of :func:`_lsq_solve` with the factors ``Wd`` of :func:`_lsq`."""
-    m, n = J.shape
+@numba.njit(inline="always", **_JIT)
+def _dn_refine(J, Ginv, T1, T2, R, X, c, m, n):
+    """The Cholesky path of :func:`_dn_solve`: column ``c`` of ``X = J⁺ R``, then ``X +=
+    J⁺ (R − J X)``, with ``Ginv`` = G⁻¹ of ``J`` (m, n); ``T1``, ``T2`` scratch."""
     k = min(m, n)
-    Ginv, U, inv_s, Vt, T1, T2 = Wd[3], Wd[4], Wd[5], Wd[6], Wd[8], Wd[9]
-    if not fast:
-        for i in range(k):
-            T1[i, 0] = 0.0
-        for a in range(m):
-            r_ = R[a, c]
-            for i in range(k):
-                T1[i, 0] += U[a, i] * r_
-        for i in range(k):
-            T1[i, 0] *= inv_s[i]
-        for b in range(n):
-            X[b, c] = 0.0
-        for i in range(k):
-            t1 = T1[i, 0]
-            for b in range(n):
-                X[b, c] += Vt[i, b] * t1
-        return
-    wide = m < n
     for it in range(2):
         if it == 0:
             for a in range(m):
@@ -1192,7 +1193,7 @@ def _dn_solve(J, fast, Wd, R, X, c):
                 for b in range(n):
                     s += J[a, b] * X[b, c]
                 T2[a, 0] = R[a, c] - s
-        if wide:
+        if m < n:
             for i in range(k):
                 s = 0.0
                 for a in range(k):
@@ -1217,6 +1218,36 @@ def _dn_solve(J, fast, Wd, R, X, c):
                 X[b, c] = s if it == 0 else X[b, c] + s
 
 
+@numba.njit(**_JIT)
+def _dn_solve(J, fast, Ginv, U, inv_s, Vt, R, X, c, T1, T2):
+    """Column ``c`` of :func:`_lsq_solve` with the factors of :func:`_lsq` (``Ginv`` on
+    the Cholesky path, ``U``, ``inv_s``, ``Vt`` on the SVD path; ``T1``, ``T2`` scratch);
+    on the Cholesky path of one loop's six rows the copy of :func:`_dn_refine` compiled
+    with m = 6 (as :func:`_factor`)."""
+    m, n = J.shape
+    k = min(m, n)
+    if not fast:
+        for i in range(k):
+            T1[i, 0] = 0.0
+        for a in range(m):
+            r_ = R[a, c]
+            for i in range(k):
+                T1[i, 0] += U[a, i] * r_
+        for i in range(k):
+            T1[i, 0] *= inv_s[i]
+        for b in range(n):
+            X[b, c] = 0.0
+        for i in range(k):
+            t1 = T1[i, 0]
+            for b in range(n):
+                X[b, c] += Vt[i, b] * t1
+        return
+    if m == 6:
+        _dn_refine(J, Ginv, T1, T2, R, X, c, 6, n)
+    else:
+        _dn_refine(J, Ginv, T1, T2, R, X, c, m, n)
+
+
 @numba.njit(inline="always", **_JIT)
 def _ls_jacobian(PI, PF, S, cols, P, W):
     """The Jacobian of columns ``cols`` at twists ``S`` into ``W``: dense or blocks."""
@@ -1239,7 +1270,7 @@ def _ls_solve(P, fast, W, Wd, R, X, c):
     """Column ``c`` of the minimum-norm solution with the factorisation of
     :func:`_ls_factor`."""
     if P[P_DENSE]:
-        _dn_solve(W[5], fast, Wd, R, X, c)
+        _dn_solve(W[5], fast, Wd[3], Wd[4], Wd[5], Wd[6], R, X, c, Wd[8], Wd[9])
     else:
         _sp_solve(P, fast, W, R, X, c)
 
@@ -1253,7 +1284,7 @@ def _ls_inv_smin(P, fast, inv0, above, W, Wd):
 
 
 # ---------------------------------------------------------------------- solver
-@numba.njit(**_JIT)
+@numba.njit(inline="always", **_JIT)
 def _lsq(J, rank, W):
     """Factor ``J`` (Cholesky or truncated SVD) into the buffers ``W`` of :func:`_lsq_work`;
     returns ``(fast, cond, inv0)``: ``cond`` NaN on the Cholesky path, ``inv0`` its

@@ -24,7 +24,7 @@ import warnings
 from pathlib import Path
 
 from . import __version__
-from .interrupt import catch_signals
+from .interrupt import catch_signals, reraise_caught
 
 STUDY_COMMANDS = ("synth", "stiffness", "approx", "analyze")
 
@@ -251,12 +251,15 @@ def _dispatch(args, state: dict) -> int:
         else:
             return _bench(args, state)
     except (StudyError, OutputFolderError) as e:
+        reraise_caught(e)
         print(f"linkwright: error: {e}", file=sys.stderr)
         return 2
     except OutputWriteError as e:
+        reraise_caught(e)
         print(f"linkwright: failed: {e}", file=sys.stderr)
         return 1
     except Exception as e:  # numerical failures (LinAlgError, ClosureError, solver trouble)
+        reraise_caught(e)   # a failure that follows a signal is the interrupt's
         print(f"linkwright: failed: {what}: {type(e).__name__}: {e}", file=sys.stderr)
         return 1
     if args.json:

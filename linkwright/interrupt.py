@@ -6,7 +6,7 @@ import signal
 import threading
 from contextlib import contextmanager
 
-__all__ = ["Interrupted", "catch_signals", "held_signals", "SIGNALS"]
+__all__ = ["Interrupted", "catch_signals", "held_signals", "reraise_caught", "SIGNALS"]
 
 SIGNALS = (signal.SIGINT, signal.SIGTERM)
 
@@ -31,8 +31,22 @@ class Interrupted(KeyboardInterrupt):
         super().__init__(self.name)
 
 
+#: the signals raised as :class:`Interrupted` since :func:`catch_signals` began
+_caught: list[int] = []
+
+
 def _raise(signum, frame):
+    _caught.append(signum)
     raise Interrupted(signum)
+
+
+def reraise_caught(error: BaseException) -> None:
+    """Raise :class:`Interrupted` (from ``error``) when a signal was raised as one since
+    :func:`catch_signals` began: ``error`` is then its consequence (code that caught the
+    interrupt and failed on with an exception of its own, as a plotting library may), and
+    the run was interrupted, not failed.  Nothing otherwise."""
+    if _caught:
+        raise Interrupted(_caught[0]) from error
 
 
 @contextmanager
@@ -44,6 +58,7 @@ def catch_signals(restore: bool = True):
     if threading.current_thread() is not threading.main_thread():
         yield
         return
+    _caught.clear()
     old = {s: signal.signal(s, _raise) for s in SIGNALS}
     try:
         yield

@@ -7,6 +7,7 @@ import subprocess
 import pytest
 
 from linkwright.examples import studies
+from linkwright.interrupt import Interrupted, catch_signals, reraise_caught
 from linkwright.output import MARKER, Outputs
 
 from .util import command, env, temporaries, tree
@@ -61,3 +62,20 @@ def test_a_signal_during_demo_leaves_all_or_nothing(tmp_path, sig, after):
     else:
         assert "nothing was written" in err
         assert now == before                               # the old set, or no folder at all
+
+
+def test_a_failure_that_follows_a_signal_is_the_interrupt():
+    # code that catches the interrupt and fails on with an exception of its own (a plotting
+    # library did: "ValueError: Invalid bounding box") still ends the run as interrupted
+    with catch_signals():
+        with pytest.raises(Interrupted) as info:
+            try:
+                try:
+                    signal.raise_signal(signal.SIGINT)
+                except KeyboardInterrupt:
+                    raise ValueError("Invalid bounding box") from None
+            except ValueError as e:
+                reraise_caught(e)
+    assert info.value.signum == signal.SIGINT and info.value.exit_code == 130
+    with catch_signals():                   # a new run: an ordinary failure stays one
+        reraise_caught(ValueError("no signal"))

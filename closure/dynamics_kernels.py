@@ -61,10 +61,10 @@ import numpy as np
 from . import lstsq as _lstsq_module
 from . import solve_kernels as _sk
 from .solve_kernels import (_JIT, F_COLSC, F_ROWMAP, H_NC, H_NJ, H_NL, H_NV, O_INQ, P_DENSE,
-                            P_M, P_NNZ, _apply, _borrowed, _borrowed_state, _cholesky,
-                            _keep_alive, _ls_factor, _ls_jacobian, _lsq, _lsq_solve,
-                            _lsq_work, _newton, _pattern, _scaled_jacobian, _sp_work,
-                            _svd_parts)
+                            P_M, P_NNZ, _apply, _borrowed, _borrowed_lsq_work,
+                            _borrowed_sp_work, _borrowed_state, _cholesky, _keep_alive,
+                            _lsq, _lsq_solve, _lsq_work, _member_state, _newton, _pattern,
+                            _scaled_jacobian, _sp_work, _svd_parts)
 from .solve_kernels import _evaluate as _evaluate_state
 
 __all__ = ["pack", "layout", "options", "step", "PREDICT", "TRACK", "RHS", "TERMS",
@@ -162,10 +162,7 @@ def _work(PI, ni, nu):
 def _borrowed_work(wk):
     """:func:`closure.solve_kernels._borrowed` of every array of the scratch of
     :func:`_work` (the caller keeps ``wk`` alive while they are used)."""
-    W = wk[0]
-    return ((_borrowed(W[0]), _borrowed(W[1]), _borrowed(W[2]), _borrowed(W[3]),
-             _borrowed(W[4]), _borrowed(W[5]), _borrowed(W[6]), _borrowed(W[7]),
-             _borrowed(W[8]), _borrowed(W[9])), _borrowed(wk[1]), _borrowed(wk[2]),
+    return (_borrowed_lsq_work(wk[0]), _borrowed(wk[1]), _borrowed(wk[2]),
             _borrowed(wk[3]), _borrowed(wk[4]), _borrowed(wk[5]), _borrowed(wk[6]),
             _borrowed(wk[7]), _borrowed(wk[8]), _borrowed(wk[9]), _borrowed(wk[10]),
             _borrowed(wk[11]), _borrowed(wk[12]))
@@ -178,7 +175,8 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
     coordinates ``q``) at input rates ``xd``: first analogs ``first`` (nv, ni), rates
     ``qd`` (nv), velocity-product accelerations ``qdd`` (nv), ``M`` (ni, ni), ``h``,
     ``Q`` (ni) (gravity, springs, dampers), ``en`` = (dampers' power, gravity energy,
-    spring energy), all overwritten; ``wk`` the scratch of :func:`_work`.  ``fac`` =
+    spring energy), all overwritten; ``wk`` the scratch of :func:`_work`, borrowed
+    (:func:`_borrowed_work`).  ``fac`` =
     ``(given, J, W, fast, cond, inv0)``: where ``given``, the unknowns' dense Jacobian at
     this pose and its factorisation (:func:`closure.solve_kernels._lsq` into ``W``, as the
     solver's Newton left them at the pose it converged to), else formed here.
@@ -187,15 +185,8 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
     estimate ``sqrt(‖J‖²_F · tr G⁻¹)`` (at least the condition number), else the
     condition number of the truncated SVD."""
     # every array borrowed (:func:`closure.solve_kernels._borrowed`: no reference counts;
-    # the caller keeps them alive for the call)
-    W0, Ju, Jin, R, X, R1, X1, Vl, bias, G, acc, Ic, _ = wk
-    W = (_borrowed(W0[0]), _borrowed(W0[1]), _borrowed(W0[2]), _borrowed(W0[3]),
-         _borrowed(W0[4]), _borrowed(W0[5]), _borrowed(W0[6]), _borrowed(W0[7]),
-         _borrowed(W0[8]), _borrowed(W0[9]))
-    Ju, Jin, R, X, R1, X1 = _borrowed(Ju), _borrowed(Jin), _borrowed(R), _borrowed(X), \
-        _borrowed(R1), _borrowed(X1)
-    Vl, bias, G, acc, Ic = _borrowed(Vl), _borrowed(bias), _borrowed(G), _borrowed(acc), \
-        _borrowed(Ic)
+    # the caller keeps them alive for the call); the scratch comes borrowed
+    W, Ju, Jin, R, X, R1, X1, Vl, bias, G, acc, Ic, _ = wk
     PI, PF, DI, DF, q, link, S, xd = _borrowed(PI), _borrowed(PF), _borrowed(DI), \
         _borrowed(DF), _borrowed(q), _borrowed(link), _borrowed(S), _borrowed(xd)
     ucols, icols, first, qd, qdd = _borrowed(ucols), _borrowed(icols), _borrowed(first), \
@@ -692,20 +683,11 @@ def _stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent,
     # sides), two member states, the terms' scratch: owned here, used borrowed
     own = (P, Pi, _sp_work(P, 1), _lsq_work(m, nu, ni), np.zeros(6 * Pi[P_NNZ]),
            np.zeros(max(6 * P[P_NNZ], m * nu)),
-           ((np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nj, 4, 4)), np.zeros((nl, 4, 4)),
-             np.zeros((nj, 4, 4)), np.zeros((nc, 6)), np.zeros((nv, 6)), np.zeros((nv, 0))),
-            (np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nj, 4, 4)), np.zeros((nl, 4, 4)),
-             np.zeros((nj, 4, 4)), np.zeros((nc, 6)), np.zeros((nv, 6)), np.zeros((nv, 0)))),
+           (_member_state(nq, ns, nj, nl, nc, nv, 0), _member_state(nq, ns, nj, nl, nc, nv, 0)),
            (np.zeros(m), np.zeros(nv), np.zeros(3), np.zeros(nv), np.zeros(nv)),
            (np.zeros((m, 1)), np.zeros((nu, 1))), (np.zeros((3, 4, 4)), np.zeros((1, 3, 3))),
            _work(PI, ni, nu))
-    W0, Wd0 = own[2], own[3]
-    W = (_borrowed(W0[0]), _borrowed(W0[1]), _borrowed(W0[2]), _borrowed(W0[3]),
-         _borrowed(W0[4]), _borrowed(W0[5]), _borrowed(W0[6]), _borrowed(W0[7]),
-         _borrowed(W0[8]), _borrowed(W0[9]), _borrowed(W0[10]), _borrowed(W0[11]))
-    Wd = (_borrowed(Wd0[0]), _borrowed(Wd0[1]), _borrowed(Wd0[2]), _borrowed(Wd0[3]),
-          _borrowed(Wd0[4]), _borrowed(Wd0[5]), _borrowed(Wd0[6]), _borrowed(Wd0[7]),
-          _borrowed(Wd0[8]), _borrowed(Wd0[9]))
+    W, Wd = _borrowed_sp_work(own[2]), _borrowed_lsq_work(own[3])
     P, Pi, Wi, Jp = _borrowed(P), _borrowed(Pi), (_borrowed(own[4]),), _borrowed(own[5])
     co, trial = _borrowed_state(own[6][0]), _borrowed_state(own[6][1])
     rs, step, w3, dv, qdd = _borrowed(own[7][0]), _borrowed(own[7][1]), _borrowed(own[7][2]), \
@@ -730,10 +712,7 @@ def _stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent,
                  buf[o + o_qdd:o + o_qdd + nv], _curvature(blk_b, iopt, xb, yb))
         co, trial, done, n_res, n_its, n_cond, _, at_pose, fast, inv0 = _newton(
             PI, PF, PM, co, trial, maxiter, False, ucols, icols, P, Pi, W, Wd, Wi, Jp, rs, step,
-            R, X, T, w3, R3, rank, fopts)
-        if not done:                    # the condition at the state returned
-            _ls_jacobian(PI, PF, co[6], ucols, P, W)
-            n_cond = _ls_factor(P, rank, W, Wd)[1]
+            R, X, T, w3, R3, rank, fopts, True)
         fac = (at_pose and dense, W[5], Wd, fast, n_cond, inv0)
         code = _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, co[0], co[1], co[3], co[6],
                          n_res, n_cond, n_its, np.int64(1 if done else 0), bq_b, brot_b, xb,

@@ -88,7 +88,7 @@ class PoseTracker:
     def __init__(self, mech, pose: Pose, opts: SolverOptions, direction, dynamics=None):
         from . import dynamics_kernels as dk
         from .lstsq import _expected_rank
-        from .solver import _NO_T, _NO_X
+        from .solver import _NO_COLS, _NO_T, _NO_X
         self.m, self.opts = mech, opts
         self._k = dk
         plan = mech.plan
@@ -109,18 +109,19 @@ class PoseTracker:
         self.fig = self.buf[o:o + 5]
         self._code = self.layout["code"]
         self._pose: Pose | None = pose
-        # the solver's batch-of-one state, corrected in place by its Newton
+        # the solver's batch-of-one state, corrected in place by its Newton (no analogs
+        # asked of it: the step poses need none, the right-hand side's kernel forms its own)
         ns, nj, nl, nc = plan.ns, plan.nj, plan.nl, plan.chords.size
         q1, rot1 = np.zeros((1, nq)), np.zeros((1, ns, 3, 3))
         A1, link1, fa1 = np.zeros((1, nj, 4, 4)), np.zeros((1, nl, 4, 4)), np.zeros((1, nj, 4, 4))
-        r1, S1, first1 = np.zeros((1, nc, 6)), np.zeros((1, nv, 6)), np.zeros((1, nv, n))
+        r1, S1, first1 = np.zeros((1, nc, 6)), np.zeros((1, nv, 6)), np.zeros((1, nv, 0))
         res1, cond1, last1 = np.zeros(1), np.zeros(1), np.zeros(1)
         its1, flag1 = np.zeros(1, dtype=np.int64), np.zeros(1, dtype=np.int64)
         sk = plan._kernels
         self._newton = sk.drive
         self._newton_args = (sk.NEWTON, *plan.packed, _NO_X, _NO_X, q1, rot1, A1, link1, fa1, r1,
                              S1, first1, res1, cond1, last1, its1, flag1, _NO_T, False,
-                             self.fopts, opts.maxiter, rank, plan._ucols, plan._icols, _NO_X)
+                             self.fopts, opts.maxiter, rank, plan._ucols, _NO_COLS, _NO_X)
         DI, DF = dynamics if dynamics is not None else dk.NO_DYNAMICS
         #: the arguments of closure.dynamics_kernels.step before ``y`` and ``buf``
         self.step_args = (*plan.packed, DI, DF, self.fopts, self.iopt, plan._ucols, plan._icols,

@@ -1346,12 +1346,35 @@ NEWTON, CONTINUE, SWEEP, SOLVE = 0, 1, 2, 3
 
 
 @numba.njit(**_JIT)
+def _member_state(nq, ns, nj, nl, nc, nv, ni):
+    """A member's state ``(q, rot, A, link, frame_a, r, S, first)`` (zeros) for ``nq``
+    stored coordinates, ``ns`` S joints, ``nj`` joints, ``nl`` links, ``nc`` loops, ``nv``
+    velocity coordinates and ``ni`` analog columns."""
+    return (np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nj, 4, 4)), np.zeros((nl, 4, 4)),
+            np.zeros((nj, 4, 4)), np.zeros((nc, 6)), np.zeros((nv, 6)), np.zeros((nv, ni)))
+
+
+@numba.njit(**_JIT)
 def _state_buffers(q, rot, A, link, r, S, first):
-    """A member's state ``(q, rot, A, link, frame_a, r, S, first)`` of the sizes of the
-    batch arrays given (zeros)."""
-    return (np.zeros(q.shape[1]), np.zeros((rot.shape[1], 3, 3)), np.zeros(A.shape[1:]),
-            np.zeros(link.shape[1:]), np.zeros(A.shape[1:]), np.zeros(r.shape[1:]),
-            np.zeros(S.shape[1:]), np.zeros(first.shape[1:]))
+    """:func:`_member_state` of the sizes of the batch arrays given."""
+    return _member_state(q.shape[1], rot.shape[1], A.shape[1], link.shape[1], r.shape[1],
+                         S.shape[1], first.shape[2])
+
+
+@numba.njit(inline="always", **_JIT)
+def _borrowed_sp_work(W):
+    """:func:`_borrowed` of every array of :func:`_sp_work`'s scratch."""
+    return (_borrowed(W[0]), _borrowed(W[1]), _borrowed(W[2]), _borrowed(W[3]),
+            _borrowed(W[4]), _borrowed(W[5]), _borrowed(W[6]), _borrowed(W[7]),
+            _borrowed(W[8]), _borrowed(W[9]), _borrowed(W[10]), _borrowed(W[11]))
+
+
+@numba.njit(inline="always", **_JIT)
+def _borrowed_lsq_work(W):
+    """:func:`_borrowed` of every array of :func:`_lsq_work`'s scratch."""
+    return (_borrowed(W[0]), _borrowed(W[1]), _borrowed(W[2]), _borrowed(W[3]),
+            _borrowed(W[4]), _borrowed(W[5]), _borrowed(W[6]), _borrowed(W[7]),
+            _borrowed(W[8]), _borrowed(W[9]))
 
 
 @numba.njit(**_JIT)
@@ -1406,7 +1429,7 @@ def _copy_out(st, b, q, rot, A, link, fa, r, S, first):
 
 @numba.njit(inline="always", **_JIT)
 def _newton(PI, PF, PM, co, trial, n_iter, bounded, ucols, icols, P, Pi, W, Wd, Wi, Jp, rs,
-            step, R, X, T, w3, R3, rank, fopts):
+            step, R, X, T, w3, R3, rank, fopts, cond_out):
     """Damped Gauss–Newton (:func:`closure.solver.newton`; :func:`drive`'s notes) on the
     member state ``co`` (a tuple like :func:`_state_buffers`' rows: q, rot, A, link, fa,
     r, S, first), ``trial`` the line search's state, at most ``n_iter`` iterations; the
@@ -1414,7 +1437,8 @@ def _newton(PI, PF, PM, co, trial, n_iter, bounded, ucols, icols, P, Pi, W, Wd, 
     SOLVE member's path whose state is not returned: no analogs, and the last step may be
     bounded instead of factored, :func:`_step_bound`).  ``P``, ``Pi``, ``W``, ``Wd``,
     ``Wi``, ``Jp``, ``rs``, ``step``, ``R``, ``X``, ``T``, ``w3``, ``R3``: :func:`drive`'s
-    scratch (borrowed); ``fopts``: :func:`drive`'s.
+    scratch (borrowed); ``fopts``: :func:`drive`'s.  ``cond_out``: where not converged, the
+    condition at the state returned (a factorisation more) rather than the last step's.
 
     Returns ``(co, trial, done, n_res, n_its, n_cond, n_last, at_pose, fast, inv0)``: the
     state tuples (swapped where the iteration ended in the trial's buffers), converged,
@@ -1507,6 +1531,9 @@ def _newton(PI, PF, PM, co, trial, n_iter, bounded, ucols, icols, P, Pi, W, Wd, 
                 break
     co = (cq, crot, cA, clink, cfa, cr, cS, cfirst)
     trial = (tq, trot, tA, tlink, tfa, tr_, tS, tfirst)
+    if cond_out and not done:           # the condition at the state returned
+        _ls_jacobian(PI, PF, co[6], ucols, P, W)
+        n_cond = _ls_factor(P, rank, W, Wd)[1]
     return co, trial, done, n_res, n_its, n_cond, n_last, at_pose, fast, inv0
 
 
@@ -1600,12 +1627,7 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
     tangent, fopts, ucols, icols, x_cur = _borrowed(tangent), _borrowed(fopts), \
         _borrowed(ucols), _borrowed(icols), _borrowed(x_cur)
     P, Pi, Wi, Jp = _borrowed(P), _borrowed(Pi), (_borrowed(Jiv),), _borrowed(Jp)
-    W = (_borrowed(W[0]), _borrowed(W[1]), _borrowed(W[2]), _borrowed(W[3]), _borrowed(W[4]),
-         _borrowed(W[5]), _borrowed(W[6]), _borrowed(W[7]), _borrowed(W[8]), _borrowed(W[9]),
-         _borrowed(W[10]), _borrowed(W[11]))
-    Wd = (_borrowed(Wd[0]), _borrowed(Wd[1]), _borrowed(Wd[2]), _borrowed(Wd[3]),
-          _borrowed(Wd[4]), _borrowed(Wd[5]), _borrowed(Wd[6]), _borrowed(Wd[7]),
-          _borrowed(Wd[8]), _borrowed(Wd[9]))
+    W, Wd = _borrowed_sp_work(W), _borrowed_lsq_work(Wd)
     co, trial, own, kept = _borrowed_state(sts[0]), _borrowed_state(sts[1]), \
         _borrowed_state(sts[2]), _borrowed_state(sts[3])
     pq, rs, step, w3, dx, xt, dv = _borrowed(vec[0]), _borrowed(vec[1]), _borrowed(vec[2]), \
@@ -1750,11 +1772,8 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
             bounded = solve_t and phase == 1 and final and not kept_out
             co, trial, done, n_res, n_its, n_cond, n_last, _, _, _ = _newton(
                 PI, PF, PM, co, trial, n_iter, bounded, ucols, icols, P, Pi, W, Wd, Wi, Jp, rs,
-                step, R, X, T, w3, R3, rank, fopts)
+                step, R, X, T, w3, R3, rank, fopts, phase == 0)
             if phase == 0:              # ------------------------ Newton's pose: its figures
-                if not done:            # the condition at the state returned
-                    _ls_jacobian(PI, PF, co[6], ucols, P, W)
-                    n_cond = _ls_factor(P, rank, W, Wd)[1]
                 if newton_only:
                     _copy_state(co, cur)
                     res[b], its[b], cond[b], flag[b], last[b] = n_res, n_its, n_cond, done, \

@@ -374,6 +374,7 @@ def _bench(args, state: dict) -> int:
         bar.set_postfix_str(modules[i + 1] if i + 1 < len(modules) else "")
         texts.append(text)
         if error is not None:
+            reraise_caught(error)           # a module's failure that follows a signal
             failed.append(name)
             print(f"linkwright: bench {name} failed: {type(error).__name__}: {error}",
                   file=sys.stderr, flush=True)

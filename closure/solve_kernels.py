@@ -703,62 +703,9 @@ def _svd_parts(J, rank, U, inv_s, Vt):
 def _lsq_solve(J, fast, Ginv, U, inv_s, Vt, R, X, T1, T2):
     """Minimum-norm ``X`` (n, j) of ``J X = R`` (R: m, j): Cholesky poses with one step of
     iterative refinement, SVD poses by the truncated pseudo-inverse; ``T1`` (k, j) and
-    ``T2`` (m, j) scratch."""
-    m, n = J.shape
-    nr = R.shape[1]
-    k = min(m, n)
-    if not fast:                        # X = V diag(inv_s) Uᵀ R, rows of U and Vt in turn
-        for c in range(nr):
-            for i in range(k):
-                T1[i, c] = 0.0
-            for a in range(m):
-                r_ = R[a, c]
-                for i in range(k):
-                    T1[i, c] += U[a, i] * r_
-            for i in range(k):
-                T1[i, c] *= inv_s[i]
-            for b in range(n):
-                X[b, c] = 0.0
-            for i in range(k):
-                t1 = T1[i, c]
-                for b in range(n):
-                    X[b, c] += Vt[i, b] * t1
-        return
-    wide = m < n
-    for it in range(2):                 # X = J⁺ R, then X += J⁺ (R − J X)
-        for c in range(nr):
-            if it == 0:
-                for a in range(m):
-                    T2[a, c] = R[a, c]
-            else:
-                for a in range(m):
-                    s = 0.0
-                    for b in range(n):
-                        s += J[a, b] * X[b, c]
-                    T2[a, c] = R[a, c] - s
-            if wide:                    # Jᵀ (G⁻¹ T2)
-                for i in range(k):
-                    s = 0.0
-                    for a in range(k):
-                        s += Ginv[i, a] * T2[a, c]
-                    T1[i, c] = s
-                for b in range(n):
-                    s = 0.0
-                    for a in range(m):
-                        s += J[a, b] * T1[a, c]
-                    X[b, c] = s if it == 0 else X[b, c] + s
-            else:                       # G⁻¹ (Jᵀ T2), Jᵀ T2 row by row
-                for i in range(k):
-                    T1[i, c] = 0.0
-                for a in range(m):
-                    t2 = T2[a, c]
-                    for i in range(k):
-                        T1[i, c] += J[a, i] * t2
-                for b in range(n):
-                    s = 0.0
-                    for a in range(k):
-                        s += Ginv[b, a] * T1[a, c]
-                    X[b, c] = s if it == 0 else X[b, c] + s
+    ``T2`` (m, j) scratch.  Column by column (:func:`_dn_solve`)."""
+    for c in range(R.shape[1]):
+        _dn_solve(J, fast, Ginv, U, inv_s, Vt, R, X, c, T1, T2)
 
 
 @numba.njit(**_JIT)
@@ -1220,8 +1167,10 @@ def _dn_refine(J, Ginv, T1, T2, R, X, c, m, n):
 
 @numba.njit(**_JIT)
 def _dn_solve(J, fast, Ginv, U, inv_s, Vt, R, X, c, T1, T2):
-    """Column ``c`` of :func:`_lsq_solve` with the factors of :func:`_lsq` (``Ginv`` on
-    the Cholesky path, ``U``, ``inv_s``, ``Vt`` on the SVD path; ``T1``, ``T2`` scratch);
+    """Column ``c`` of the minimum-norm ``X`` of ``J X = R`` with the factors of
+    :func:`_lsq`: on the Cholesky path ``G⁻¹`` = ``Ginv`` and one step of iterative
+    refinement, on the SVD path the truncated pseudo-inverse ``V diag(inv_s) Uᵀ``
+    (``T1``, ``T2`` scratch: their column 0);
     on the Cholesky path of one loop's six rows the copy of :func:`_dn_refine` compiled
     with m = 6 (as :func:`_factor`)."""
     m, n = J.shape

@@ -232,14 +232,15 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
         qd[c] = s
     # link twists of the rates, then each column's twist rate [V_c, S_c] q̇_c with V_c
     # its carrier's twist (plus the joint's earlier coordinates that move its frame)
-    for li in range(nl):
+    for li in range(nl):                # (each sum over c in order, as 6 running sums)
         for s in range(6):
-            v = 0.0
-            for c in range(nv):
-                p = DF[o_ps + nv * li + c]
-                if p != 0.0:
-                    v += p * (S[c, s] * qd[c])
-            Vl[li, s] = v
+            Vl[li, s] = 0.0
+        for c in range(nv):
+            p = DF[o_ps + nv * li + c]
+            if p != 0.0:
+                r = qd[c]
+                for s in range(6):
+                    Vl[li, s] += p * (S[c, s] * r)
     for c in range(nv):
         car = DI[o_car + c]
         for s in range(6):
@@ -261,12 +262,12 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
     # velocity-product accelerations of the unknowns: J_u q̈_u = −Σ_c L_lc [V_c, S_c] q̇_c
     for lp in range(nc):
         for s in range(6):
-            v = 0.0
-            for c in range(nv):
-                L = DF[o_lp + nv * lp + c]
-                if L != 0.0:
-                    v += L * bias[c, s]
-            acc[s] = v
+            acc[s] = 0.0
+        for c in range(nv):
+            L = DF[o_lp + nv * lp + c]
+            if L != 0.0:
+                for s in range(6):
+                    acc[s] += L * bias[c, s]
         for s in range(6):
             v = 0.0
             for t in range(6):
@@ -313,14 +314,19 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
             link[li, 1, 2] * DF[o + 3]
         c2 = link[li, 2, 3] + link[li, 2, 0] * DF[o + 1] + link[li, 2, 1] * DF[o + 2] + \
             link[li, 2, 2] * DF[o + 3]
-        for a in range(3):
-            for b in range(3):
+        for b in range(3):                  # column b of I Rᵀ, then R times it
+            t0, t1, t2 = 0.0, 0.0, 0.0
+            for w in range(3):
+                t0 += DF[o + 4 + w] * link[li, b, w]
+            for w in range(3):
+                t1 += DF[o + 7 + w] * link[li, b, w]
+            for w in range(3):
+                t2 += DF[o + 10 + w] * link[li, b, w]
+            for a in range(3):
                 s = 0.0
-                for u in range(3):
-                    t_ = 0.0
-                    for w in range(3):
-                        t_ += DF[o + 4 + 3 * u + w] * link[li, b, w]
-                    s += link[li, a, u] * t_
+                s += link[li, a, 0] * t0
+                s += link[li, a, 1] * t1
+                s += link[li, a, 2] * t2
                 Ic[a, b] = s
         w0, w1, w2 = Vl[li, 3], Vl[li, 4], Vl[li, 5]
         # com velocity v + ω × c, its velocity-product acceleration a + α × c + ω × v_c

@@ -1255,14 +1255,13 @@ def _jac_values(P, W):
 
 
 @numba.njit(**_JIT)
-def _step_bound(P, W, Jp, inv_prev, rs):
-    """Upper bounds, without factoring the Jacobian ``J`` in ``W``, of its minimum-norm
-    step ``‖J⁺ r‖`` for the residual ``rs`` and of its condition estimate
-    ``sqrt(‖J‖²_F · tr G⁻¹)`` (:func:`_factor`), from the previous iteration's
-    Jacobian values ``Jp`` and its ``sqrt(tr G⁻¹) = inv_prev`` (≥ 1 / σ_min): Weyl's
-    ``σ_min(J) ≥ 1 / inv_prev − ‖J − J_prev‖_F =: σ``, then ``‖r‖ / σ`` and
-    ``sqrt(k) ‖J‖_F / σ``; ``(inf, inf)`` where σ is not positive."""
-    J = _jac_values(P, W)
+def _step_bound(P, J, Jp, inv_prev, rs):
+    """Upper bounds, without factoring the Jacobian ``J`` (its values, flat:
+    :func:`_jac_values`), of its minimum-norm step ``‖J⁺ r‖`` for the residual ``rs`` and
+    of its condition estimate ``sqrt(‖J‖²_F · tr G⁻¹)`` (:func:`_factor`), from the
+    previous iteration's Jacobian values ``Jp`` and its ``sqrt(tr G⁻¹) = inv_prev``
+    (≥ 1 / σ_min): Weyl's ``σ_min(J) ≥ 1 / inv_prev − ‖J − J_prev‖_F =: σ``, then
+    ``‖r‖ / σ`` and ``sqrt(k) ‖J‖_F / σ``; ``(inf, inf)`` where σ is not positive."""
     d2, jj = 0.0, 0.0
     for i in range(J.size):
         d = J[i] - Jp[i]
@@ -1277,15 +1276,18 @@ def _step_bound(P, W, Jp, inv_prev, rs):
     return math.sqrt(rr) / lo, math.sqrt(jj * P[P_K]) / lo
 
 
-@numba.njit(**_JIT)
-def _copy_state(a, b):
-    """State ``a`` into ``b`` (both ``(q, rot, A, link, frame_a, r, S, first)``)."""
+@numba.njit(inline="always", **_JIT)
+def _copy_state(a, b, full=True):
+    """State ``a`` into ``b`` (both ``(q, rot, A, link, frame_a, r, S, first)``); unless
+    ``full``, only what a path from ``a`` reads (``q``, ``rot``, ``S``, ``first``), not the
+    transforms and residual ``A``, ``link``, ``frame_a``, ``r``."""
     _copy(a[0], b[0])
     _copy(a[1], b[1])
-    _copy(a[2], b[2])
-    _copy(a[3], b[3])
-    _copy(a[4], b[4])
-    _copy(a[5], b[5])
+    if full:
+        _copy(a[2], b[2])
+        _copy(a[3], b[3])
+        _copy(a[4], b[4])
+        _copy(a[5], b[5])
     _copy(a[6], b[6])
     _copy(a[7], b[7])
 
@@ -1361,7 +1363,7 @@ def _same_guess(q, rot, x_from, a, b):
     return True
 
 
-@numba.njit(**_JIT)
+@numba.njit(inline="always", **_JIT)
 def _copy_out(st, b, q, rot, A, link, fa, r, S, first):
     """A member's state ``st`` into row ``b`` of the batch arrays (the kinematic state only
     where they have rows)."""
@@ -1423,7 +1425,7 @@ def _newton(PI, PF, PM, co, trial, n_iter, bounded, ucols, icols, P, Pi, W, Wd, 
         _ls_jacobian(PI, PF, cS, ucols, P, W)
         n_its += 1
         if bounded and n_res <= floor:  # converged if the step's bound says so
-            sb, cb = _step_bound(P, W, Jp, prev_inv, rs)
+            sb, cb = _step_bound(P, _jac_values(P, W), Jp, prev_inv, rs)
             if sb <= 0.5 * xtl and cb <= 0.5 * FAST_COND:
                 done = True
                 n_cond, n_last = np.nan, sb
@@ -1609,7 +1611,7 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
         if solve_t:
             cur = own
             if shared:                  # the previous member's start, shared
-                _copy_state(kept, own)
+                _copy_state(kept, own, kept_out)
                 res[b], cond[b], last[b] = k_res, k_cond, k_last
                 start_code = 0 if k_done else 2
                 if k_done and k_res > rtol_off:
@@ -1736,15 +1738,16 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
                     start_code = 3
                 shared = b + 1 < n and _same_guess(q, rot, x_from, b, b + 1)
                 if shared:
-                    _copy_state(own, kept)
+                    _copy_state(own, kept, kept_out)
                     k_done, k_res, k_cond, k_last = done, n_res, n_cond, n_last
                 phase = 1
                 continue
             # ------------------------------------------------ accept or halve
             jump = _distance(PI, PF, co[0], co[1], pq, prot, dv, R3, w3)
             if done and n_res <= rtol and jump <= 0.5 * big_pred:
-                if solve_t:             # the corrected state becomes the member's
-                    cur, co = co, cur
+                if solve_t:             # the corrected state becomes the member's (cur is
+                    co, own = own, co   # own: co only ever holds scratch)
+                    cur = own
                 else:
                     _copy_state(co, cur)
                 for i in range(ni):
@@ -1765,7 +1768,6 @@ def drive(task, PI, PF, PM, x_from, x_to, q, rot, A, link, fa, r, S, first, res,
             continue
         its[b] = path_its
         if solve_t:
-            own = cur
             _copy_out(own, b, q, rot, A, link, fa, r, S, first)
             flag[b] = start_code if start_code else stop
         else:

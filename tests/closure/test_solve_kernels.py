@@ -223,7 +223,8 @@ def test_step_bound_bounds_the_newton_step_and_the_condition_estimate(build):
         J = plan.scaled_jacobian(ks.S, ucols)[0]
         r = plan.scaled_residual(ks.r)[0]
         W[5][:] = J
-        step_bound, cond_bound = K._step_bound(P, W, J0.ravel(), inv_prev, r)
+        step_bound, cond_bound = K._step_bound(P, K._jac_values(P, W), J0.ravel(),
+                                                  inv_prev, r)
         if size == 1.0:
             assert step_bound == cond_bound == np.inf
             continue

@@ -699,7 +699,7 @@ def _svd_parts(J, rank, U, inv_s, Vt):
     return _cond_of(s, rank), big
 
 
-@numba.njit(**_JIT)
+@numba.njit(inline="always", **_JIT)
 def _lsq_solve(J, fast, Ginv, U, inv_s, Vt, R, X, T1, T2):
     """Minimum-norm ``X`` (n, j) of ``J X = R`` (R: m, j): Cholesky poses with one step of
     iterative refinement, SVD poses by the truncated pseudo-inverse; ``T1`` (k, j) and

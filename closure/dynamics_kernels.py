@@ -318,12 +318,11 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
             link[li, 2, 2] * DF[o + 3]
         for b in range(3):                  # column b of I Rᵀ, then R times it
             t0, t1, t2 = 0.0, 0.0, 0.0
-            for w in range(3):
-                t0 += DF[o + 4 + w] * link[li, b, w]
-            for w in range(3):
-                t1 += DF[o + 7 + w] * link[li, b, w]
-            for w in range(3):
-                t2 += DF[o + 10 + w] * link[li, b, w]
+            for w in range(3):                # (each of the three sums in w's order)
+                r_bw = link[li, b, w]
+                t0 += DF[o + 4 + w] * r_bw
+                t1 += DF[o + 7 + w] * r_bw
+                t2 += DF[o + 10 + w] * r_bw
             for a in range(3):
                 s = 0.0
                 s += link[li, a, 0] * t0

@@ -702,8 +702,8 @@ def _svd_parts(J, rank, U, inv_s, Vt):
 @numba.njit(inline="always", **_JIT)
 def _lsq_solve(J, fast, Ginv, U, inv_s, Vt, R, X, T1, T2):
     """Minimum-norm ``X`` (n, j) of ``J X = R`` (R: m, j): Cholesky poses with one step of
-    iterative refinement, SVD poses by the truncated pseudo-inverse; ``T1`` (k, j) and
-    ``T2`` (m, j) scratch.  Column by column (:func:`_dn_solve`)."""
+    iterative refinement, SVD poses by the truncated pseudo-inverse, column by column
+    (:func:`_dn_solve`); ``T1`` (k, ≥ 1) and ``T2`` (m, ≥ 1) scratch (their column 0)."""
     for c in range(R.shape[1]):
         _dn_solve(J, fast, Ginv, U, inv_s, Vt, R, X, c, T1, T2)
 
@@ -1124,7 +1124,7 @@ def _sp_inv_smin(P, fast, inv0, above, W):
 
 # A full envelope (a mechanism of one loop) gains nothing from the block structure and
 # loses to its indirection: the dense kernels above then serve, on the dense Jacobian, with
-# the solves taken one right-hand side at a time (the same values as :func:`_lsq_solve`).
+# the solves taken one right-hand side at a time (:func:`_lsq_solve` loops over them).
 @numba.njit(inline="always", **_JIT)
 def _dn_refine(J, Ginv, T1, T2, R, X, c, m, n):
     """The Cholesky path of :func:`_dn_solve`: column ``c`` of ``X = J⁺ R``, then ``X +=

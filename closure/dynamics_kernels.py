@@ -33,8 +33,12 @@ without the terms.  What the kernel cannot settle it reports instead (a pose tha
 not close, a near-singular one, a non-finite force, a mass matrix without a Cholesky
 factor) and the caller takes the pose-by-pose path.  Batched forward dynamics
 (:func:`closure.batch_dynamics.simulate_batch`: B trajectories in lockstep) runs task
-``RHS`` for all its members in one call, each on its own by the same code;
-:func:`nearest_poses` keeps each member's solved pose nearest every output time.
+``RHS`` for all its members in one call, each on its own: where the loop Jacobian is
+dense and of full expected rank (one loop), the Newton of
+:data:`closure.lane_kernels.LANES` members at a time in SIMD lanes (:func:`_stage_lanes`:
+the same arithmetic, so every member's right-hand side is the one-member stage's bit for
+bit), else member by member; :func:`nearest_poses` keeps each member's solved pose
+nearest every output time.
 
 The mechanism's structure comes packed by :func:`closure.solve_kernels.pack`; the
 dynamics' own data by :func:`pack` here, into ``DI`` (int64: counts, offsets, each
@@ -60,11 +64,13 @@ import numpy as np
 
 from . import lstsq as _lstsq_module
 from . import solve_kernels as _sk
-from .solve_kernels import (_JIT, F_COLSC, F_ROWMAP, H_NC, H_NJ, H_NL, H_NV, O_INQ, P_DENSE,
-                            P_M, P_NNZ, _apply, _borrowed, _borrowed_lsq_work,
-                            _borrowed_sp_work, _borrowed_state, _cholesky, _keep_alive,
-                            _lsq, _lsq_solve, _lsq_work, _member_state, _newton, _pattern,
-                            _scaled_jacobian, _sp_work, _svd_parts)
+from . import lane_kernels as _lk
+from .solve_kernels import (_JIT, F_COLSC, F_OFFSET, F_ROWMAP, F_SCALE, H_NC, H_NJ, H_NL, H_NV,
+                            O_INQ, P_DENSE, P_M, P_NNZ, _apply, _borrowed, _borrowed_lsq_work,
+                            _borrowed_sp_work, _borrowed_state, _cholesky, _dn_solve,
+                            _inv_smin, _keep_alive, _lsq, _lsq_solve, _lsq_work,
+                            _member_state, _newton, _pattern, _scaled_jacobian, _sp_work,
+                            _svd_parts)
 from .solve_kernels import _evaluate as _evaluate_state
 
 __all__ = ["pack", "layout", "options", "step", "PREDICT", "TRACK", "RHS", "TERMS",
@@ -78,7 +84,7 @@ def _stamp(module) -> tuple:
 
 
 #: the files whose compiled code the kernels here contain
-_DEPENDENCIES = (_stamp(_sk), _stamp(_lstsq_module))
+_DEPENDENCIES = (_stamp(_sk), _stamp(_lstsq_module), _stamp(_lk))
 
 
 def _njit(fn):
@@ -686,6 +692,9 @@ def _stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent,
     nq, ns = bq.shape[0] // max(B, 1), brot.shape[0] // max(B, 1)
     P, Pi = _pattern(PI, PF, ucols), _pattern(PI, PF, icols)
     m = P[P_M]
+    if B > 1 and P[P_DENSE] == 1 and m > 0 and nu > 0 and min(rank, m, nu) == min(m, nu):
+        return _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx,
+                            tangent, y, buf)
     # the Newton's scratch (its dense factors wide enough for the terms' ni right-hand
     # sides), two member states, the terms' scratch: owned here, used borrowed
     own = (P, Pi, _sp_work(P, 1), _lsq_work(m, nu, ni), np.zeros(6 * Pi[P_NNZ]),
@@ -729,6 +738,266 @@ def _stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent,
             n_bad += 1
     _keep_alive(own)
     return n_bad
+
+
+@_njit
+def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y,
+                 buf):
+    """:func:`_stage` for B > 1 members of a mechanism whose loop Jacobian is dense and of
+    full expected rank, :data:`closure.lane_kernels.LANES` members at a time: the solver's
+    Newton (:func:`closure.solve_kernels._newton`, its iterations, tests and backtracking
+    per member) with the kinematic state, the Jacobian, its factorisation and the steps of
+    the whole block in one call each (:mod:`closure.lane_kernels`: the same arithmetic,
+    member by member in SIMD lanes), a member's terms (:func:`_pose_rhs`) as soon as it
+    converges.  A member whose Gram matrix has no Cholesky factor within ``FAST_COND``
+    takes the one-member truncated SVD.  Every member's outputs are :func:`_stage`'s, bit
+    for bit."""
+    ni, nu, rank, maxiter = icols.shape[0], ucols.shape[0], iopt[I_RANK], iopt[I_MAXITER]
+    nv, nj, nl, nc = PI[H_NV], PI[H_NJ], PI[H_NL], PI[H_NC]
+    mm, blk, o_qdd = 2 * ni + 2, iopt[B_SIZE], iopt[B_QDD]
+    B = y.shape[0] // mm
+    nq, ns = bq.shape[0] // B, brot.shape[0] // B
+    m = 6 * nc
+    k = min(m, nu)
+    L = _lk.LANES
+    xtol, max_step = fopts[0], fopts[2]
+    scale, offset = PF[PI[F_SCALE]], PF[PI[F_OFFSET]]
+    floor, xtl, noise = 1e-14 * offset, xtol * offset, 1e-15 * offset
+    above = xtl / noise
+    # the block's state (current and trial), its scratch, and one member's scratch
+    own = (_lk.lane_state(nq, ns, nj, nl, nc, nv), _lk.lane_state(nq, ns, nj, nl, nc, nv),
+           (np.zeros((nj, 4, 4, L)), np.zeros((nj, 4, 4, L)), np.zeros((3, 4, 4, L)),
+            np.zeros((8, L)), np.zeros((3, 4, 4)), np.zeros((1, 6)), np.zeros(3)),
+           (np.zeros((m, nu, L)), np.zeros((k, k, L)), np.zeros((k, k, L)),
+            np.zeros((k, k, L)), np.zeros((k, k, L)), np.zeros(L), np.zeros(L),
+            np.zeros((3, L))),
+           (np.zeros((nu, L)), np.zeros((k, L)), np.zeros((m, L)), np.zeros(L),
+            np.zeros((m, L)), np.zeros((nv, L))),
+           (np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros(nq), np.zeros((ns, 3, 3)),
+            np.zeros((nl, 4, 4)), np.zeros((nv, 6)), np.zeros(nv), np.zeros((1, 3, 3)),
+            np.zeros(nv)),
+           (np.zeros((m, nu)), np.zeros((m, 1)), np.zeros((nu, 1))), _lsq_work(m, nu, ni),
+           _work(PI, ni, nu),
+           (np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L)),
+           (np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.bool_)))
+    cur, tri = _borrowed_lanes(own[0]), _borrowed_lanes(own[1])
+    A, fa, T, tmp, T1, r1, w3 = own[2]
+    J, G, Lc, Linv, Ginv, fl, il, vec = own[3]
+    X, T1l, T2l, acc, rs, stp = own[4]
+    gq, grot, tq, trot, glink, gS, dv, R3, qdd = own[5]
+    Jd, Rd, Xd = own[6]
+    Wd, wk = _borrowed_lsq_work(own[7]), _borrowed_work(own[8])
+    n_res, prev, n_cond, inv0, wait = own[9]
+    n_its, done = own[10]
+    PI, PF, PM, DI, DF = _borrowed(PI), _borrowed(PF), _borrowed(PM), _borrowed(DI), \
+        _borrowed(DF)
+    fopts, iopt, ucols, icols = _borrowed(fopts), _borrowed(iopt), _borrowed(ucols), \
+        _borrowed(icols)
+    bq, brot, bx, tangent, y, buf = _borrowed(bq), _borrowed(brot), _borrowed(bx), \
+        _borrowed(tangent), _borrowed(y), _borrowed(buf)
+    gq, grot, tq, trot, glink, gS, dv, R3, qdd = _borrowed(gq), _borrowed(grot), \
+        _borrowed(tq), _borrowed(trot), _borrowed(glink), _borrowed(gS), _borrowed(dv), \
+        _borrowed(R3), _borrowed(qdd)
+    Jd, Rd, Xd, rs, stp = _borrowed(Jd), _borrowed(Rd), _borrowed(Xd), _borrowed(rs), \
+        _borrowed(stp)
+    X, fl, il = _borrowed(X), _borrowed(fl), _borrowed(il)
+    n_res, prev, n_cond, inv0, wait = _borrowed(n_res), _borrowed(prev), _borrowed(n_cond), \
+        _borrowed(inv0), _borrowed(wait)
+    n_its, done = _borrowed(n_its), _borrowed(done)
+    n_bad = 0
+    for b0 in range(0, B, L):
+        LN = min(L, B - b0)
+        cq, crot = cur[0], cur[1]
+        for l in range(LN):                     # the predictors, into the block
+            b = b0 + l
+            o = b * blk
+            xb, yb = bx[b * ni:(b + 1) * ni], y[b * mm:(b + 1) * mm]
+            _predict(PI, PF, bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns], xb,
+                     tangent[b * nv:(b + 1) * nv], yb, gq, grot, dv, R3,
+                     buf[o + o_qdd:o + o_qdd + nv], _curvature(buf[o:o + blk], iopt, xb, yb))
+            _to_lane(gq, grot, cq, crot, l)
+        _lk.evaluate(PI, PF, PM, cur[0], cur[1], cur[2], cur[3], cur[4], A, fa, T, tmp, T1,
+                     r1, w3, LN)
+        for l in range(LN):
+            n_res[l] = _lane_residual(cur[3], scale, rs, l)
+            prev[l], n_its[l], done[l], n_cond[l], wait[l] = np.inf, 0, False, 1.0, 0.0
+        active = LN
+        for _ in range(maxiter):
+            if active == 0:
+                break
+            _lk.jacobian(PI, PF, cur[4], ucols, J, LN)
+            _lk.factor(J, G, Lc, Linv, Ginv, fl, il, vec, LN)
+            _lk.solve(J, Ginv, rs, X, T1l, T2l, acc, LN)
+            for l in range(LN):
+                if done[l]:
+                    continue
+                n_its[l] += 1
+                fast = fl[l] == 1.0
+                if fast:
+                    n_cond[l], inv0[l] = np.nan, il[l]
+                else:                           # the truncated SVD, one member
+                    _from_lane2(J, Jd, l)
+                    fast, n_cond[l], inv0[l] = _lsq(Jd, rank, Wd)
+                    for a in range(m):
+                        Rd[a, 0] = rs[a, l]
+                    _dn_solve(Jd, fast, Wd[3], Wd[4], Wd[5], Wd[6], Rd, Xd, 0, Wd[8], Wd[9])
+                    for a in range(nu):
+                        X[a, l] = Xd[a, 0]
+                big = 0.0
+                for a in range(nu):
+                    v = abs(X[a, l])
+                    if v > big or v != v:
+                        big = v
+                stalled = n_its[l] > 1 and n_res[l] > 0.5 * prev[l]
+                ism = inv0[l]
+                if fast and inv0[l] > above:
+                    _from_lane2(Ginv, Wd[3], l)
+                    ism = _inv_smin(fast, inv0[l], above, Wd[3], Wd[2], Wd[7])
+                tol_step = max(xtl, noise * ism)
+                conv = big <= tol_step and (n_res[l] <= floor or stalled)
+                prev[l] = n_res[l]
+                if conv:                        # the member's terms, with this factorisation
+                    done[l] = True
+                    active -= 1
+                    if fast:
+                        _from_lane2(J, Jd, l)
+                        _from_lane2(Ginv, Wd[3], l)
+                    code = _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, cur, l, gq,
+                                     grot, glink, gS, n_res[l], n_cond[l], n_its[l], True,
+                                     bq, brot, bx, tangent, y, buf, b0 + l, wk, qdd,
+                                     (True, Jd, Wd, fast, n_cond[l], inv0[l]))
+                    if code != OK:
+                        n_bad += 1
+                    continue
+                fac = min(1.0, max_step / max(big, 1e-300))
+                for c in range(nv):
+                    stp[c, l] = 0.0
+                for a in range(nu):
+                    stp[ucols[a], l] = -X[a, l] * fac
+                wait[l] = 1.0                   # in the line search
+            if active == 0:
+                break
+            # backtracking: the longest of 1, 1/2, 1/4 ... not raising the residual
+            for hs in range(8):
+                for l in range(LN):
+                    if done[l] or wait[l] == 0.0:
+                        continue
+                    if hs:
+                        for c in range(nv):
+                            stp[c, l] *= 0.5
+                    for c in range(nv):
+                        dv[c] = stp[c, l]
+                    _from_lane(cur[0], cur[1], gq, grot, l)
+                    _apply(PI, PF, gq, grot, dv, tq, trot, R3)
+                    _to_lane(tq, trot, tri[0], tri[1], l)
+                _lk.evaluate(PI, PF, PM, tri[0], tri[1], tri[2], tri[3], tri[4], A, fa, T,
+                             tmp, T1, r1, w3, LN)
+                left = 0
+                for l in range(LN):
+                    if done[l] or wait[l] == 0.0:
+                        continue
+                    rn = _lane_residual(tri[3], scale, rs, l)
+                    if rn <= n_res[l] * (1 + 1e-9) or rn < floor or hs == 7:
+                        n_res[l] = rn
+                        wait[l] = 0.0
+                    else:
+                        left += 1
+                if left == 0:
+                    break
+            cur, tri = tri, cur                 # every member still running took its trial
+        for l in range(LN):                     # not converged: the condition at the pose
+            if done[l]:
+                continue
+            for c in range(nv):
+                for s in range(6):
+                    gS[c, s] = cur[4][c, s, l]
+            _scaled_jacobian(PI, PF, gS, ucols, Jd)
+            n_cond[l] = _lsq(Jd, rank, Wd)[1]
+            code = _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, cur, l, gq, grot, glink,
+                             gS, n_res[l], n_cond[l], n_its[l], False, bq, brot, bx, tangent,
+                             y, buf, b0 + l, wk, qdd, (False, Jd, Wd, False, n_cond[l], 0.0))
+            if code != OK:
+                n_bad += 1
+    _keep_alive(own)
+    return n_bad
+
+
+@numba.njit(inline="always", **_JIT)
+def _borrowed_lanes(st):
+    """:func:`closure.solve_kernels._borrowed` of every array of a block state."""
+    return (_borrowed(st[0]), _borrowed(st[1]), _borrowed(st[2]), _borrowed(st[3]),
+            _borrowed(st[4]))
+
+
+@numba.njit(inline="always", **_JIT)
+def _to_lane(q, rot, ql, rotl, l):
+    """One member's ``q`` (nq,), ``rot`` (ns, 3, 3) into lane ``l`` of a block."""
+    for i in range(q.shape[0]):
+        ql[i, l] = q[i]
+    for s in range(rot.shape[0]):
+        for a in range(3):
+            for b in range(3):
+                rotl[s, a, b, l] = rot[s, a, b]
+
+
+@numba.njit(inline="always", **_JIT)
+def _from_lane(ql, rotl, q, rot, l):
+    """Lane ``l`` of a block's ``q``, ``rot`` into one member's (:func:`_to_lane`)."""
+    for i in range(q.shape[0]):
+        q[i] = ql[i, l]
+    for s in range(rot.shape[0]):
+        for a in range(3):
+            for b in range(3):
+                rot[s, a, b] = rotl[s, a, b, l]
+
+
+@numba.njit(inline="always", **_JIT)
+def _from_lane2(Ml, M, l):
+    """Lane ``l`` of ``Ml`` (r, c, L) into ``M`` (r, c)."""
+    for a in range(M.shape[0]):
+        for b in range(M.shape[1]):
+            M[a, b] = Ml[a, b, l]
+
+
+@numba.njit(inline="always", **_JIT)
+def _lane_residual(r, scale, rs, l):
+    """:func:`closure.solve_kernels._scaled_residual` of lane ``l`` of ``r`` (nc, 6, L)
+    into lane ``l`` of ``rs`` (6 nc, L)."""
+    big = 0.0
+    for k in range(r.shape[0]):
+        for s in range(6):
+            v = r[k, s, l] / scale if s < 3 else r[k, s, l]
+            rs[6 * k + s, l] = v
+            if abs(v) > big or v != v:
+                big = abs(v)
+    return big
+
+
+@numba.njit(inline="always", **_JIT)
+def _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, st, l, gq, grot, glink, gS, res, cond,
+              its, conv, bq, brot, bx, tangent, y, buf, b, wk, qdd, fac):
+    """:func:`_pose_rhs` of member ``b`` whose corrected pose is lane ``l`` of the block
+    state ``st`` (:func:`closure.lane_kernels.lane_state`), through one member's scratch
+    ``gq``, ``grot``, ``glink``, ``gS``; its code also into its block's ``code``."""
+    ni = icols.shape[0]
+    nv, nq, ns, blk = PI[H_NV], gq.shape[0], grot.shape[0], iopt[B_SIZE]
+    mm = 2 * ni + 2
+    _from_lane(st[0], st[1], gq, grot, l)
+    for i in range(glink.shape[0]):
+        for a in range(4):
+            for c in range(4):
+                glink[i, a, c] = st[2][i, a, c, l]
+    for c in range(nv):
+        for s in range(6):
+            gS[c, s] = st[4][c, s, l]
+    o = b * blk
+    code = _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, gq, grot, glink, gS, res, cond,
+                     its, np.int64(1 if conv else 0), bq[b * nq:(b + 1) * nq],
+                     brot[b * ns:(b + 1) * ns], bx[b * ni:(b + 1) * ni],
+                     tangent[b * nv:(b + 1) * nv], y[b * mm:(b + 1) * mm], buf[o:o + blk], wk,
+                     qdd, fac)
+    buf[o + iopt[B_CODE]] = code
+    return code
 
 
 @_njit

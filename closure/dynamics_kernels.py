@@ -87,10 +87,11 @@ def _stamp(module) -> tuple:
 _DEPENDENCIES = (_stamp(_sk), _stamp(_lstsq_module), _stamp(_lk))
 
 
-def _njit(fn):
-    """``numba.njit`` with the options of :mod:`closure.solve_kernels`, the cache index
-    stamped with the files this module's kernels depend on (see the module notes)."""
-    disp = numba.njit(**_JIT)(fn)
+def _njit(fn, lanes=False):
+    """``numba.njit`` with the options of :mod:`closure.solve_kernels` (``lanes``: of
+    :mod:`closure.lane_kernels`), the cache index stamped with the files this module's
+    kernels depend on (see the module notes)."""
+    disp = numba.njit(**(_lk._LJIT if lanes else _JIT))(fn)
     cache_file = getattr(getattr(disp, "_cache", None), "_cache_file", None)
     if cache_file is not None and hasattr(cache_file, "_source_stamp"):
         cache_file._source_stamp = (cache_file._source_stamp, _DEPENDENCIES)
@@ -391,6 +392,253 @@ def _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qd
 
 
 
+
+def _lanes(fn):
+    return _njit(fn, lanes=True)
+
+
+@_lanes
+def _terms_lanes(PI, PF, DI, DF, q, link, S, xd, ucols, icols, J, Ginv, inv0, sc, first, qd,
+                 qdd, M, h, Q, en, bound, LN):
+    """:func:`_terms` of lanes ``0 .. LN − 1`` of a block (:mod:`closure.lane_kernels`) on
+    the Cholesky path, the factorisation given: ``q`` (nq, L), ``link`` (nl, 4, 4, L),
+    ``S`` (nv, 6, L), rates ``xd`` (ni, L), the unknowns' Jacobian ``J`` (m, nu, L), its
+    ``Ginv`` (k, k, L) and ``inv0`` (L) (:func:`closure.lane_kernels.factor`); into
+    ``first`` (nv, ni, L), ``qd``, ``qdd`` (nv, L), ``M`` (ni, ni, L), ``h``, ``Q`` (ni,
+    L), ``en`` (3, L) and ``bound`` (L); ``sc`` the scratch of :func:`_lane_work`.  Every
+    value the one-member kernel's, bit for bit (a term it skips where a first analog is
+    zero is selected away here)."""
+    Jin, R, X, T1, T2, acc1, Vl, bias, G, acc, Ic = sc
+    nv, nc, nl = PI[H_NV], PI[H_NC], PI[H_NL]
+    m = 6 * nc
+    nu, ni = ucols.shape[0], icols.shape[0]
+    o_cs, o_rm = PI[F_COLSC], PI[F_ROWMAP]
+    o_ps, o_lp, o_car, o_dptr, o_didx = DI[D_FPSIGN], DI[D_FLOOP], DI[D_CARRIER], \
+        DI[D_DPTR], DI[D_DIDX]
+    # first analogs: the unknowns' minimum-norm solve of the input columns
+    _lk.jacobian(PI, PF, S, icols, Jin, LN)
+    for l in range(LN):
+        acc1[l] = 0.0
+    for a in range(m):
+        for k in range(nu):
+            for l in range(LN):
+                acc1[l] += J[a, k, l] * J[a, k, l]
+    for l in range(LN):
+        bound[l] = math.sqrt(acc1[l]) * inv0[l]
+    for i in range(ni):
+        f = PF[o_cs + icols[i]]
+        for a in range(m):
+            for l in range(LN):
+                R[i, a, l] = Jin[a, i, l] / f
+        _lk.solve(J, Ginv, R[i], X[i], T1, T2, acc1, LN)
+    for c in range(nv):
+        for i in range(ni):
+            for l in range(LN):
+                first[c, i, l] = 0.0
+    for i in range(ni):
+        for l in range(LN):
+            first[icols[i], i, l] = 1.0
+    for k in range(nu):
+        f = PF[o_cs + ucols[k]]
+        for i in range(ni):
+            for l in range(LN):
+                first[ucols[k], i, l] = -X[i, k, l] * f
+    for c in range(nv):
+        for l in range(LN):
+            acc1[l] = 0.0
+        for i in range(ni):
+            for l in range(LN):
+                acc1[l] += first[c, i, l] * xd[i, l]
+        for l in range(LN):
+            qd[c, l] = acc1[l]
+    # link twists of the rates, each column's twist rate [V_c, S_c] q̇_c
+    for li in range(nl):
+        for s in range(6):
+            for l in range(LN):
+                Vl[li, s, l] = 0.0
+        for c in range(nv):
+            p = DF[o_ps + nv * li + c]
+            if p != 0.0:
+                for s in range(6):
+                    for l in range(LN):
+                        Vl[li, s, l] += p * (S[c, s, l] * qd[c, l])
+    for c in range(nv):
+        car = DI[o_car + c]
+        for s in range(6):
+            for l in range(LN):
+                acc[s, l] = Vl[car, s, l]
+        for x in range(DI[o_dptr + c], DI[o_dptr + c + 1]):
+            d = DI[o_didx + x]
+            for s in range(6):
+                for l in range(LN):
+                    acc[s, l] += S[d, s, l] * qd[d, l]
+        for l in range(LN):
+            v0, v1, v2, w0, w1, w2 = acc[0, l], acc[1, l], acc[2, l], acc[3, l], acc[4, l], \
+                acc[5, l]
+            sv0, sv1, sv2, sw0, sw1, sw2 = S[c, 0, l], S[c, 1, l], S[c, 2, l], S[c, 3, l], \
+                S[c, 4, l], S[c, 5, l]
+            r = qd[c, l]
+            bias[c, 0, l] = ((w1 * sv2 - w2 * sv1) - (sw1 * v2 - sw2 * v1)) * r
+            bias[c, 1, l] = ((w2 * sv0 - w0 * sv2) - (sw2 * v0 - sw0 * v2)) * r
+            bias[c, 2, l] = ((w0 * sv1 - w1 * sv0) - (sw0 * v1 - sw1 * v0)) * r
+            bias[c, 3, l] = (w1 * sw2 - w2 * sw1) * r
+            bias[c, 4, l] = (w2 * sw0 - w0 * sw2) * r
+            bias[c, 5, l] = (w0 * sw1 - w1 * sw0) * r
+    # velocity-product accelerations of the unknowns: J_u q̈_u = −Σ_c L_lc [V_c, S_c] q̇_c
+    for lp in range(nc):
+        for s in range(6):
+            for l in range(LN):
+                acc[s, l] = 0.0
+        for c in range(nv):
+            Lc = DF[o_lp + nv * lp + c]
+            if Lc != 0.0:
+                for s in range(6):
+                    for l in range(LN):
+                        acc[s, l] += Lc * bias[c, s, l]
+        for s in range(6):
+            for l in range(LN):
+                acc1[l] = 0.0
+            for t in range(6):
+                f = PF[o_rm + 6 * s + t]
+                for l in range(LN):
+                    acc1[l] += f * acc[t, l]
+            for l in range(LN):
+                R[ni, 6 * lp + s, l] = acc1[l]
+    _lk.solve(J, Ginv, R[ni], X[ni], T1, T2, acc1, LN)
+    for c in range(nv):
+        for l in range(LN):
+            qdd[c, l] = 0.0
+    for k in range(nu):
+        f = PF[o_cs + ucols[k]]
+        for l in range(LN):
+            qdd[ucols[k], l] = -X[ni, k, l] * f
+    # the bodies, about their centres of mass
+    for i in range(ni):
+        for l in range(LN):
+            for j in range(ni):
+                M[i, j, l] = 0.0
+            h[i, l] = 0.0
+            Q[i, l] = 0.0
+    g0, g1, g2 = DF[0], DF[1], DF[2]
+    for l in range(LN):
+        en[1, l] = 0.0
+    o_b, o_bl = DI[D_FBODY], DI[D_BLINK]
+    for kb in range(DI[D_NB]):
+        li = DI[o_bl + kb]
+        o = o_b + 13 * kb
+        mass = DF[o]
+        for i in range(ni):
+            for s in range(6):
+                for l in range(LN):
+                    G[i, s, l] = 0.0
+        for s in range(6):
+            for l in range(LN):
+                acc[s, l] = 0.0
+        for c in range(nv):
+            p = DF[o_ps + nv * li + c]
+            if p != 0.0:
+                for s in range(6):
+                    for l in range(LN):
+                        acc[s, l] += p * (S[c, s, l] * qdd[c, l] + bias[c, s, l])
+                for i in range(ni):
+                    for s in range(6):
+                        for l in range(LN):
+                            f = first[c, i, l]
+                            g = G[i, s, l] + p * (S[c, s, l] * f)
+                            G[i, s, l] = g if f != 0.0 else G[i, s, l]
+        cm0, cm1, cm2 = DF[o + 1], DF[o + 2], DF[o + 3]
+        for l in range(LN):
+            c0 = link[li, 0, 3, l] + link[li, 0, 0, l] * cm0 + link[li, 0, 1, l] * cm1 + \
+                link[li, 0, 2, l] * cm2
+            c1 = link[li, 1, 3, l] + link[li, 1, 0, l] * cm0 + link[li, 1, 1, l] * cm1 + \
+                link[li, 1, 2, l] * cm2
+            c2 = link[li, 2, 3, l] + link[li, 2, 0, l] * cm0 + link[li, 2, 1, l] * cm1 + \
+                link[li, 2, 2, l] * cm2
+            for b in range(3):              # column b of I Rᵀ, then R times it
+                t0, t1, t2 = 0.0, 0.0, 0.0
+                for w in range(3):
+                    r_bw = link[li, b, w, l]
+                    t0 += DF[o + 4 + w] * r_bw
+                    t1 += DF[o + 7 + w] * r_bw
+                    t2 += DF[o + 10 + w] * r_bw
+                for a in range(3):
+                    s = 0.0
+                    s += link[li, a, 0, l] * t0
+                    s += link[li, a, 1, l] * t1
+                    s += link[li, a, 2, l] * t2
+                    Ic[a, b, l] = s
+            w0, w1, w2 = Vl[li, 3, l], Vl[li, 4, l], Vl[li, 5, l]
+            u0 = Vl[li, 0, l] + (w1 * c2 - w2 * c1)
+            u1 = Vl[li, 1, l] + (w2 * c0 - w0 * c2)
+            u2 = Vl[li, 2, l] + (w0 * c1 - w1 * c0)
+            al0, al1, al2 = acc[3, l], acc[4, l], acc[5, l]
+            a0 = acc[0, l] + (al1 * c2 - al2 * c1) + (w1 * u2 - w2 * u1)
+            a1 = acc[1, l] + (al2 * c0 - al0 * c2) + (w2 * u0 - w0 * u2)
+            a2 = acc[2, l] + (al0 * c1 - al1 * c0) + (w0 * u1 - w1 * u0)
+            I00, I01, I02 = Ic[0, 0, l], Ic[0, 1, l], Ic[0, 2, l]
+            I10, I11, I12 = Ic[1, 0, l], Ic[1, 1, l], Ic[1, 2, l]
+            I20, I21, I22 = Ic[2, 0, l], Ic[2, 1, l], Ic[2, 2, l]
+            iw0 = I00 * w0 + I01 * w1 + I02 * w2
+            iw1 = I10 * w0 + I11 * w1 + I12 * w2
+            iw2 = I20 * w0 + I21 * w1 + I22 * w2
+            n0 = I00 * al0 + I01 * al1 + I02 * al2 + (w1 * iw2 - w2 * iw1)
+            n1 = I10 * al0 + I11 * al1 + I12 * al2 + (w2 * iw0 - w0 * iw2)
+            n2 = I20 * al0 + I21 * al1 + I22 * al2 + (w0 * iw1 - w1 * iw0)
+            for i in range(ni):             # J_v = Γ_v + Γ_ω × c, J_ω = Γ_ω
+                gw0, gw1, gw2 = G[i, 3, l], G[i, 4, l], G[i, 5, l]
+                G[i, 0, l] += gw1 * c2 - gw2 * c1
+                G[i, 1, l] += gw2 * c0 - gw0 * c2
+                G[i, 2, l] += gw0 * c1 - gw1 * c0
+            for i in range(ni):
+                gv0, gv1, gv2 = G[i, 0, l], G[i, 1, l], G[i, 2, l]
+                gw0, gw1, gw2 = G[i, 3, l], G[i, 4, l], G[i, 5, l]
+                for j in range(i + 1):
+                    e = mass * (gv0 * G[j, 0, l] + gv1 * G[j, 1, l] + gv2 * G[j, 2, l])
+                    e += G[i, 3, l] * (I00 * G[j, 3, l] + I01 * G[j, 4, l] + I02 * G[j, 5, l])
+                    e += G[i, 4, l] * (I10 * G[j, 3, l] + I11 * G[j, 4, l] + I12 * G[j, 5, l])
+                    e += G[i, 5, l] * (I20 * G[j, 3, l] + I21 * G[j, 4, l] + I22 * G[j, 5, l])
+                    M[i, j, l] += e
+                h[i, l] += mass * (gv0 * a0 + gv1 * a1 + gv2 * a2) + gw0 * n0 + gw1 * n1 + \
+                    gw2 * n2
+                Q[i, l] += mass * (gv0 * g0 + gv1 * g1 + gv2 * g2)
+            en[1, l] -= mass * (c0 * g0 + c1 * g1 + c2 * g2)
+    for i in range(ni):
+        for j in range(i):
+            for l in range(LN):
+                M[j, i, l] = M[i, j, l]
+    # springs and dampers on joint coordinates, through the first analogs
+    for l in range(LN):
+        en[0, l], en[2, l] = 0.0, 0.0
+    o_ec, o_eq, o_ek, o_ef = DI[D_ECOL], DI[D_EQC], DI[D_EKIND], DI[D_FELEM]
+    for e in range(DI[D_NE]):
+        col, qc = DI[o_ec + e], DI[o_eq + e]
+        k, free = DF[o_ef + 2 * e], DF[o_ef + 2 * e + 1]
+        spring = DI[o_ek + e] == SPRING
+        for l in range(LN):
+            if spring:
+                dq = q[qc, l] - free
+                tau = -k * dq
+                en[2, l] += 0.5 * k * dq * dq
+            else:
+                tau = -k * qd[col, l]
+                en[0, l] -= tau * qd[col, l]
+            for i in range(ni):
+                Q[i, l] += first[col, i, l] * tau
+
+
+@_njit
+def _lane_work(PI, ni, nu):
+    """Scratch of :func:`_terms_lanes`: ``(Jin (m, ni, L), R (ni + 1, m, L), X (ni + 1,
+    nu, L), T1 (k, L), T2 (m, L), acc1 (L), Vl (nl, 6, L), bias (nv, 6, L), G (ni, 6, L),
+    acc (6, L), Ic (3, 3, L))``."""
+    L = _lk.LANES
+    nv, nc, nl = PI[H_NV], PI[H_NC], PI[H_NL]
+    m = 6 * nc
+    k = min(m, nu)
+    return (np.zeros((m, ni, L)), np.zeros((ni + 1, m, L)), np.zeros((ni + 1, nu, L)),
+            np.zeros((k, L)), np.zeros((m, L)), np.zeros(L), np.zeros((nl, 6, L)),
+            np.zeros((nv, 6, L)), np.zeros((ni, 6, L)), np.zeros((6, L)), np.zeros((3, 3, L)))
+
 # ---------------------------------------------------------------------- the entry kernel
 #: tasks of :func:`step`
 PREDICT, TRACK, RHS, TERMS = 0, 1, 2, 3
@@ -598,16 +846,37 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
 
 
 @numba.njit(inline="always", **_JIT)
-def _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, cond, its, flag,
-              bq, brot, bx, tangent, y, buf, wk, qdd, fac):
+def _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, its, flag, bq,
+              brot, bx, tangent, y, buf, wk, qdd, fac):
     """Task ``RHS`` of :func:`step` at one corrected pose: its stored coordinates ``q``
     (nq,), ``rot`` (ns, 3, 3), link poses ``link`` (nl, 4, 4), twists ``S`` (nv, 6) and the
-    solver's figures ``res``, ``cond``, ``its``, ``flag`` (scalars) judged into the
+    solver's figures ``res``, ``its``, ``flag`` (scalars) judged into the
     block ``buf`` (:func:`layout`), the terms there at rates ``y[ni:2 ni]``, the base
     (``bq``, ``brot``, ``bx``) and ``tangent`` moved, ``out`` and ``Minv`` written; ``wk``
     (:func:`_work`) and ``qdd`` (nv,) scratch; ``fac``: :func:`_terms`'.  Returns
     :func:`step`'s code."""
     # borrowed (no reference counts on the views below): the caller keeps them alive
+    iopt, icols, y, buf = _borrowed(iopt), _borrowed(icols), _borrowed(y), _borrowed(buf)
+    ni, nv = icols.shape[0], PI[H_NV]
+    o_f, o_qd, o_M = iopt[B_FIRST], iopt[B_QD], iopt[B_M]
+    o_h, o_Q, o_en, o_qdd = iopt[B_H], iopt[B_Q], iopt[B_EN], iopt[B_QDD]
+    fast, bound = _terms(PI, PF, DI, DF, q, link, S, y[ni:2 * ni], iopt[I_RANK], ucols, icols,
+                         wk, buf[o_f:o_f + nv * ni].reshape((nv, ni)), buf[o_qd:o_qd + nv],
+                         qdd, buf[o_M:o_M + ni * ni].reshape((ni, ni)), buf[o_h:o_h + ni],
+                         buf[o_Q:o_Q + ni], buf[o_en:o_en + 3], fac)
+    for c in range(nv):
+        buf[o_qdd + c] = qdd[c]
+    return _settle(PI, PF, fopts, iopt, ucols, icols, q, rot, S, res, its, flag, bq, brot, bx,
+                   tangent, y, buf, wk, fast, bound)
+
+
+@numba.njit(inline="always", **_JIT)
+def _settle(PI, PF, fopts, iopt, ucols, icols, q, rot, S, res, its, flag, bq, brot, bx, tangent,
+            y, buf, wk, fast, bound):
+    """The rest of :func:`_pose_rhs` once the terms are in the block ``buf``: the pose
+    judged (its figures, the condition where the terms' ``bound`` does not settle it),
+    the base and ``tangent`` moved, ``out`` and ``Minv`` written.  Returns :func:`step`'s
+    code."""
     PI, PF, fopts, iopt, ucols, icols = _borrowed(PI), _borrowed(PF), _borrowed(fopts), \
         _borrowed(iopt), _borrowed(ucols), _borrowed(icols)
     q, rot, bq, brot, bx, tangent = _borrowed(q), _borrowed(rot), _borrowed(bq), \
@@ -615,27 +884,21 @@ def _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, c
     y, buf = _borrowed(y), _borrowed(buf)
     ni = icols.shape[0]
     nv, nq = PI[H_NV], q.shape[0]
-    rank = iopt[I_RANK]
-    o_f, o_qd, o_M, o_fig = iopt[B_FIRST], iopt[B_QD], iopt[B_M], iopt[B_FIG]
+    o_f, o_M, o_fig = iopt[B_FIRST], iopt[B_M], iopt[B_FIG]
     conv = flag != 0
     closed = conv and res <= fopts[1]
     fig = buf[o_fig:o_fig + 5]
     fig[FIG_RES], fig[FIG_ITS], fig[FIG_CONV] = res, its, 1.0 if conv else 0.0
     fig[FIG_CLOSED] = 1.0 if closed else 0.0
     first = buf[o_f:o_f + nv * ni].reshape((nv, ni))
-    qd = buf[o_qd:o_qd + nv]
     M = buf[o_M:o_M + ni * ni].reshape((ni, ni))
     o_h, o_Q, o_en = iopt[B_H], iopt[B_Q], iopt[B_EN]
     h, Q, en = buf[o_h:o_h + ni], buf[o_Q:o_Q + ni], buf[o_en:o_en + 3]
     xd = y[ni:2 * ni]
-    fast, bound = _terms(PI, PF, DI, DF, q, link, S, xd, rank, ucols, icols, wk, first, qd, qdd,
-                         M, h, Q, en, fac)
-    o_qdd = iopt[B_QDD]
-    for c in range(nv):
-        buf[o_qdd + c] = qdd[c]
     c_ = np.nan
     if not closed or not (fast and bound <= fopts[8]):
-        c_ = bound if not fast else _exact_condition(PI, PF, S, ucols, rank, wk[1], wk[0])
+        c_ = bound if not fast else _exact_condition(PI, PF, S, ucols, iopt[I_RANK], wk[1],
+                                                     wk[0])
     fig[FIG_COND] = c_
     if not closed:
         return NOT_CLOSED
@@ -728,11 +991,11 @@ def _stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent,
                  buf[o + o_qdd:o + o_qdd + nv], _curvature(blk_b, iopt, xb, yb))
         co, trial, done, n_res, n_its, n_cond, _, at_pose, fast, inv0 = _newton(
             PI, PF, PM, co, trial, maxiter, False, ucols, icols, P, Pi, W, Wd, Wi, Jp, rs, step,
-            R, X, T, w3, R3, rank, fopts, True)
+            R, X, T, w3, R3, rank, fopts, False)
         fac = (at_pose and dense, W[5], Wd, fast, n_cond, inv0)
         code = _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, co[0], co[1], co[3], co[6],
-                         n_res, n_cond, n_its, np.int64(1 if done else 0), bq_b, brot_b, xb,
-                         tan_b, yb, blk_b, wk, qdd, fac)
+                         n_res, n_its, np.int64(1 if done else 0), bq_b, brot_b, xb, tan_b, yb,
+                         blk_b, wk, qdd, fac)
         buf[o + o_code] = code
         if code != OK:
             n_bad += 1
@@ -779,7 +1042,15 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
            (np.zeros((m, nu)), np.zeros((m, 1)), np.zeros((nu, 1))), _lsq_work(m, nu, ni),
            _work(PI, ni, nu),
            (np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L)),
-           (np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.bool_)))
+           (np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.bool_)),
+           # the converged members' poses and factorisations, their terms
+           _lk.lane_state(nq, ns, nj, nl, nc, nv),
+           (np.zeros((m, nu, L)), np.zeros((k, k, L)), np.zeros(L), np.zeros((ni, L)),
+            np.zeros(L), np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.bool_)),
+           _lane_work(PI, ni, nu),
+           (np.zeros((nv, ni, L)), np.zeros((nv, L)), np.zeros((nv, L)),
+            np.zeros((ni, ni, L)), np.zeros((ni, L)), np.zeros((ni, L)), np.zeros((3, L)),
+            np.zeros(L)))
     cur, tri = _borrowed_lanes(own[0]), _borrowed_lanes(own[1])
     A, fa, T, tmp, T1, r1, w3 = own[2]
     J, G, Lc, Linv, Ginv, fl, il, vec = own[3]
@@ -789,6 +1060,12 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
     Wd, wk = _borrowed_lsq_work(own[7]), _borrowed_work(own[8])
     n_res, prev, n_cond, inv0, wait = own[9]
     n_its, done = own[10]
+    fin = _borrowed_lanes(own[11])
+    fJ, fGinv, finv0, fxd, fres, fits, ready = own[12]
+    fJ, fGinv, finv0, fxd = _borrowed(fJ), _borrowed(fGinv), _borrowed(finv0), _borrowed(fxd)
+    fres, fits, ready = _borrowed(fres), _borrowed(fits), _borrowed(ready)
+    lsc = own[13]
+    t_first, t_qd, t_qdd, t_M, t_h, t_Q, t_en, t_bound = own[14]
     PI, PF, PM, DI, DF = _borrowed(PI), _borrowed(PF), _borrowed(PM), _borrowed(DI), \
         _borrowed(DF)
     fopts, iopt, ucols, icols = _borrowed(fopts), _borrowed(iopt), _borrowed(ucols), \
@@ -821,6 +1098,8 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
         for l in range(LN):
             n_res[l] = _lane_residual(cur[3], scale, rs, l)
             prev[l], n_its[l], done[l], n_cond[l], wait[l] = np.inf, 0, False, 1.0, 0.0
+            ready[l] = False
+        n_ready = 0
         active = LN
         for _ in range(maxiter):
             if active == 0:
@@ -859,12 +1138,14 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
                 if conv:                        # the member's terms, with this factorisation
                     done[l] = True
                     active -= 1
-                    if fast:
-                        _from_lane2(J, Jd, l)
-                        _from_lane2(Ginv, Wd[3], l)
+                    if fast:                    # in lanes, once the block's Newton is done
+                        _lane_copy(cur, fin, J, fJ, Ginv, fGinv, l)
+                        finv0[l], fres[l], fits[l], ready[l] = inv0[l], n_res[l], n_its[l], True
+                        n_ready += 1
+                        continue
                     code = _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, cur, l, gq,
-                                     grot, glink, gS, n_res[l], n_cond[l], n_its[l], True,
-                                     bq, brot, bx, tangent, y, buf, b0 + l, wk, qdd,
+                                     grot, glink, gS, n_res[l], n_its[l], True, bq, brot, bx,
+                                     tangent, y, buf, b0 + l, wk, qdd,
                                      (True, Jd, Wd, fast, n_cond[l], inv0[l]))
                     if code != OK:
                         n_bad += 1
@@ -905,17 +1186,37 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
                 if left == 0:
                     break
             cur, tri = tri, cur                 # every member still running took its trial
-        for l in range(LN):                     # not converged: the condition at the pose
+        if n_ready:                             # the converged members' terms
+            for l in range(LN):
+                b = b0 + l
+                for i in range(ni):
+                    fxd[i, l] = y[b * mm + ni + i]
+            _terms_lanes(PI, PF, DI, DF, fin[0], fin[2], fin[4], fxd, ucols, icols, fJ, fGinv,
+                         finv0, lsc, t_first, t_qd, t_qdd, t_M, t_h, t_Q, t_en, t_bound, LN)
+            for l in range(LN):
+                if not ready[l]:
+                    continue
+                b = b0 + l
+                o = b * blk
+                _lane_terms_out(iopt, t_first, t_qd, t_qdd, t_M, t_h, t_Q, t_en,
+                                buf[o:o + blk], l)
+                _from_lane(fin[0], fin[1], gq, grot, l)
+                for c in range(nv):
+                    for s in range(6):
+                        gS[c, s] = fin[4][c, s, l]
+                code = _settle(PI, PF, fopts, iopt, ucols, icols, gq, grot, gS, fres[l], fits[l],
+                               np.int64(1), bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns],
+                               bx[b * ni:(b + 1) * ni], tangent[b * nv:(b + 1) * nv],
+                               y[b * mm:(b + 1) * mm], buf[o:o + blk], wk, True, t_bound[l])
+                buf[o + iopt[B_CODE]] = code
+                if code != OK:
+                    n_bad += 1
+        for l in range(LN):                     # not converged: judged, the terms factor
             if done[l]:
                 continue
-            for c in range(nv):
-                for s in range(6):
-                    gS[c, s] = cur[4][c, s, l]
-            _scaled_jacobian(PI, PF, gS, ucols, Jd)
-            n_cond[l] = _lsq(Jd, rank, Wd)[1]
             code = _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, cur, l, gq, grot, glink,
-                             gS, n_res[l], n_cond[l], n_its[l], False, bq, brot, bx, tangent,
-                             y, buf, b0 + l, wk, qdd, (False, Jd, Wd, False, n_cond[l], 0.0))
+                             gS, n_res[l], n_its[l], False, bq, brot, bx, tangent, y, buf,
+                             b0 + l, wk, qdd, (False, Jd, Wd, False, 1.0, 0.0))
             if code != OK:
                 n_bad += 1
     _keep_alive(own)
@@ -927,6 +1228,51 @@ def _borrowed_lanes(st):
     """:func:`closure.solve_kernels._borrowed` of every array of a block state."""
     return (_borrowed(st[0]), _borrowed(st[1]), _borrowed(st[2]), _borrowed(st[3]),
             _borrowed(st[4]))
+
+
+@numba.njit(inline="always", **_JIT)
+def _lane_copy(st, dst, J, dJ, Ginv, dGinv, l):
+    """Lane ``l`` of a block state's ``q``, ``rot``, ``link``, ``S`` and of ``J``, ``Ginv``
+    into lane ``l`` of ``dst``, ``dJ``, ``dGinv``."""
+    for i in range(st[0].shape[0]):
+        dst[0][i, l] = st[0][i, l]
+    for i in range(st[1].shape[0]):
+        for a in range(3):
+            for c in range(3):
+                dst[1][i, a, c, l] = st[1][i, a, c, l]
+    for i in range(st[2].shape[0]):
+        for a in range(4):
+            for c in range(4):
+                dst[2][i, a, c, l] = st[2][i, a, c, l]
+    for i in range(st[4].shape[0]):
+        for a in range(6):
+            dst[4][i, a, l] = st[4][i, a, l]
+    for a in range(J.shape[0]):
+        for c in range(J.shape[1]):
+            dJ[a, c, l] = J[a, c, l]
+    for a in range(Ginv.shape[0]):
+        for c in range(Ginv.shape[1]):
+            dGinv[a, c, l] = Ginv[a, c, l]
+
+
+@numba.njit(inline="always", **_JIT)
+def _lane_terms_out(iopt, first, qd, qdd, M, h, Q, en, blk, l):
+    """Lane ``l`` of :func:`_terms_lanes`' outputs into a member's block ``blk``
+    (:func:`layout`)."""
+    nv, ni = first.shape[0], first.shape[1]
+    o_f, o_qd, o_qdd, o_M = iopt[B_FIRST], iopt[B_QD], iopt[B_QDD], iopt[B_M]
+    o_h, o_Q, o_en = iopt[B_H], iopt[B_Q], iopt[B_EN]
+    for c in range(nv):
+        for i in range(ni):
+            blk[o_f + ni * c + i] = first[c, i, l]
+        blk[o_qd + c] = qd[c, l]
+        blk[o_qdd + c] = qdd[c, l]
+    for i in range(ni):
+        for j in range(ni):
+            blk[o_M + ni * i + j] = M[i, j, l]
+        blk[o_h + i], blk[o_Q + i] = h[i, l], Q[i, l]
+    for i in range(3):
+        blk[o_en + i] = en[i, l]
 
 
 @numba.njit(inline="always", **_JIT)
@@ -974,8 +1320,8 @@ def _lane_residual(r, scale, rs, l):
 
 
 @numba.njit(inline="always", **_JIT)
-def _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, st, l, gq, grot, glink, gS, res, cond,
-              its, conv, bq, brot, bx, tangent, y, buf, b, wk, qdd, fac):
+def _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, st, l, gq, grot, glink, gS, res, its,
+              conv, bq, brot, bx, tangent, y, buf, b, wk, qdd, fac):
     """:func:`_pose_rhs` of member ``b`` whose corrected pose is lane ``l`` of the block
     state ``st`` (:func:`closure.lane_kernels.lane_state`), through one member's scratch
     ``gq``, ``grot``, ``glink``, ``gS``; its code also into its block's ``code``."""
@@ -991,8 +1337,8 @@ def _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, st, l, gq, grot, glink,
         for s in range(6):
             gS[c, s] = st[4][c, s, l]
     o = b * blk
-    code = _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, gq, grot, glink, gS, res, cond,
-                     its, np.int64(1 if conv else 0), bq[b * nq:(b + 1) * nq],
+    code = _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, gq, grot, glink, gS, res, its,
+                     np.int64(1 if conv else 0), bq[b * nq:(b + 1) * nq],
                      brot[b * ns:(b + 1) * ns], bx[b * ni:(b + 1) * ni],
                      tangent[b * nv:(b + 1) * nv], y[b * mm:(b + 1) * mm], buf[o:o + blk], wk,
                      qdd, fac)

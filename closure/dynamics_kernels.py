@@ -696,7 +696,7 @@ def _exact_condition(PI, PF, S, ucols, rank, Ju, W):
     return _svd_parts(Ju, rank, W[4], W[5], W[6])[0]
 
 
-@_njit
+@numba.njit(inline="always", **_JIT)
 def _cholesky_inverse(M, Minv, L):
     """``Minv = M⁻¹`` of a symmetric positive definite ``M`` (Cholesky); False when the
     factorisation fails."""
@@ -723,18 +723,25 @@ def _predict(PI, PF, bq, brot, bx, tangent, y, q, rot, dv, R3, qdd, k):
     (nv, ni) to the inputs ``y[:ni]``, inputs set, into ``q`` (nq,) and ``rot`` (ns, 3, 3);
     ``dv`` (nv,) and ``R3`` (1, 3, 3) scratch.  ``k`` not 0: plus the second-order term
     ``k q̈_v`` (``qdd`` (nv,): :func:`_curvature`)."""
-    ni = bx.shape[0]
-    o_cs, o_inq = PI[F_COLSC], PI[O_INQ]
+    _tangent_step(PI, PF, bx, tangent, y, qdd, k, dv)
+    _apply(PI, PF, bq, brot, dv, q, rot, R3)
+    o_inq = PI[O_INQ]
+    for i in range(bx.shape[0]):
+        q[PI[o_inq + i]] = y[i]
+
+
+@numba.njit(inline="always", **_JIT)
+def _tangent_step(PI, PF, bx, tangent, y, qdd, k, dv):
+    """:func:`_predict`'s dimensionless step ``dv`` (nv,) from the inputs ``bx`` to
+    ``y[:ni]`` along ``tangent`` (plus ``k q̈_v``)."""
+    o_cs = PI[F_COLSC]
     for c in range(PI[H_NV]):
         s = 0.0
-        for i in range(ni):
+        for i in range(bx.shape[0]):
             s += tangent[c, i] * (y[i] - bx[i])
         if k != 0.0:
             s += k * qdd[c]
         dv[c] = s / PF[o_cs + c]
-    _apply(PI, PF, bq, brot, dv, q, rot, R3)
-    for i in range(ni):
-        q[PI[o_inq + i]] = y[i]
 
 
 @numba.njit(inline="always", **_JIT)
@@ -1017,7 +1024,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
     for bit."""
     ni, nu, rank, maxiter = icols.shape[0], ucols.shape[0], iopt[I_RANK], iopt[I_MAXITER]
     nv, nj, nl, nc = PI[H_NV], PI[H_NJ], PI[H_NL], PI[H_NC]
-    mm, blk, o_qdd = 2 * ni + 2, iopt[B_SIZE], iopt[B_QDD]
+    mm, blk, o_qdd, o_inq = 2 * ni + 2, iopt[B_SIZE], iopt[B_QDD], PI[O_INQ]
     B = y.shape[0] // mm
     nq, ns = bq.shape[0] // B, brot.shape[0] // B
     m = 6 * nc
@@ -1036,9 +1043,8 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
             np.zeros((3, L))),
            (np.zeros((nu, L)), np.zeros((k, L)), np.zeros((m, L)), np.zeros(L),
             np.zeros((m, L)), np.zeros((nv, L))),
-           (np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros(nq), np.zeros((ns, 3, 3)),
-            np.zeros((nl, 4, 4)), np.zeros((nv, 6)), np.zeros(nv), np.zeros((1, 3, 3)),
-            np.zeros(nv)),
+           (np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nl, 4, 4)), np.zeros((nv, 6)),
+            np.zeros((1, 3, 3)), np.zeros(nv)),
            (np.zeros((m, nu)), np.zeros((m, 1)), np.zeros((nu, 1))), _lsq_work(m, nu, ni),
            _work(PI, ni, nu),
            (np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L)),
@@ -1055,7 +1061,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
     A, fa, T, tmp, T1, r1, w3 = own[2]
     J, G, Lc, Linv, Ginv, fl, il, vec = own[3]
     X, T1l, T2l, acc, rs, stp = own[4]
-    gq, grot, tq, trot, glink, gS, dv, R3, qdd = own[5]
+    gq, grot, glink, gS, R3, qdd = own[5]
     Jd, Rd, Xd = own[6]
     Wd, wk = _borrowed_lsq_work(own[7]), _borrowed_work(own[8])
     n_res, prev, n_cond, inv0, wait = own[9]
@@ -1072,9 +1078,8 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
         _borrowed(icols)
     bq, brot, bx, tangent, y, buf = _borrowed(bq), _borrowed(brot), _borrowed(bx), \
         _borrowed(tangent), _borrowed(y), _borrowed(buf)
-    gq, grot, tq, trot, glink, gS, dv, R3, qdd = _borrowed(gq), _borrowed(grot), \
-        _borrowed(tq), _borrowed(trot), _borrowed(glink), _borrowed(gS), _borrowed(dv), \
-        _borrowed(R3), _borrowed(qdd)
+    gq, grot, glink, gS, R3, qdd = _borrowed(gq), _borrowed(grot), _borrowed(glink), \
+        _borrowed(gS), _borrowed(R3), _borrowed(qdd)
     Jd, Rd, Xd, rs, stp = _borrowed(Jd), _borrowed(Rd), _borrowed(Xd), _borrowed(rs), \
         _borrowed(stp)
     X, fl, il = _borrowed(X), _borrowed(fl), _borrowed(il)
@@ -1084,15 +1089,18 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
     n_bad = 0
     for b0 in range(0, B, L):
         LN = min(L, B - b0)
-        cq, crot = cur[0], cur[1]
-        for l in range(LN):                     # the predictors, into the block
+        for l in range(LN):                     # the predictors (_predict), into the block
             b = b0 + l
             o = b * blk
             xb, yb = bx[b * ni:(b + 1) * ni], y[b * mm:(b + 1) * mm]
-            _predict(PI, PF, bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns], xb,
-                     tangent[b * nv:(b + 1) * nv], yb, gq, grot, dv, R3,
-                     buf[o + o_qdd:o + o_qdd + nv], _curvature(buf[o:o + blk], iopt, xb, yb))
-            _to_lane(gq, grot, cq, crot, l)
+            _tangent_step(PI, PF, xb, tangent[b * nv:(b + 1) * nv], yb,
+                          buf[o + o_qdd:o + o_qdd + nv], _curvature(buf[o:o + blk], iopt, xb, yb),
+                          stp[:, l])
+            _to_lane(bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns], tri[0], tri[1], l)
+        _lk.apply(PI, PF, tri[0], tri[1], stp, cur[0], cur[1], R3, LN)
+        for l in range(LN):
+            for i in range(ni):
+                cur[0][PI[o_inq + i], l] = y[(b0 + l) * mm + i]
         _lk.evaluate(PI, PF, PM, cur[0], cur[1], cur[2], cur[3], cur[4], A, fa, T, tmp, T1,
                      r1, w3, LN)
         for l in range(LN):
@@ -1160,17 +1168,12 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
                 break
             # backtracking: the longest of 1, 1/2, 1/4 ... not raising the residual
             for hs in range(8):
-                for l in range(LN):
-                    if done[l] or wait[l] == 0.0:
-                        continue
-                    if hs:
-                        for c in range(nv):
-                            stp[c, l] *= 0.5
-                    for c in range(nv):
-                        dv[c] = stp[c, l]
-                    _from_lane(cur[0], cur[1], gq, grot, l)
-                    _apply(PI, PF, gq, grot, dv, tq, trot, R3)
-                    _to_lane(tq, trot, tri[0], tri[1], l)
+                if hs:
+                    for l in range(LN):
+                        if not done[l] and wait[l] != 0.0:
+                            for c in range(nv):
+                                stp[c, l] *= 0.5
+                _lk.apply(PI, PF, cur[0], cur[1], stp, tri[0], tri[1], R3, LN)
                 _lk.evaluate(PI, PF, PM, tri[0], tri[1], tri[2], tri[3], tri[4], A, fa, T,
                              tmp, T1, r1, w3, LN)
                 left = 0
@@ -1346,7 +1349,7 @@ def _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, st, l, gq, grot, glink,
     return code
 
 
-@_njit
+@numba.njit(inline="always", **_JIT)
 def _adopt(q, rot, bq, brot, bx, y):
     """The corrected pose ``q`` (nq,), ``rot`` (ns, 3, 3) at inputs ``y[:ni]`` becomes the
     base."""

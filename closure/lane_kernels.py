@@ -35,12 +35,13 @@ import numpy as np
 from numba.core.compiler import Compiler
 
 from .lstsq import FAST_COND
-from .solve_kernels import (_JIT, F_CENTRE, F_LOOP, F_PITCH, F_ROWMAP, F_SV, F_SW, F_UMID,
-                            H_NC, H_NJ, H_NL, H_NV, M_CFBI, M_FA, M_TL, M_TR, O_CJ, O_CLB,
-                            O_COLJ, O_JLA, O_KIND, O_KV, O_KW, O_QOFF, O_SIDX, O_TFWD, O_TJ,
-                            O_TLI, O_TPL, O_UQ0, _loop_log, _rigid, _rigid_inv, _rigid_mul)
+from .solve_kernels import (_JIT, F_CENTRE, F_COLSC, F_LOOP, F_PITCH, F_ROWMAP, F_SV, F_SW,
+                            F_UMID, H_NC, H_NJ, H_NL, H_NV, M_CFBI, M_FA, M_TL, M_TR, O_CJ,
+                            O_CLB, O_COLJ, O_INV, O_JLA, O_KIND, O_KV, O_KW, O_QOFF, O_SCALQ,
+                            O_SCALV, O_SCOLS, O_SIDX, O_SORD, O_TFWD, O_TJ, O_TLI, O_TPL,
+                            O_UQ0, _exp_so3, _loop_log, _rigid, _rigid_inv, _rigid_mul)
 
-__all__ = ["LANES", "evaluate", "jacobian", "factor", "solve", "lane_state"]
+__all__ = ["LANES", "evaluate", "apply", "jacobian", "factor", "solve", "lane_state"]
 
 #: lanes per block (the trailing axis of every lane array)
 LANES = 16
@@ -433,3 +434,29 @@ def solve(J, Ginv, R, X, T1, T2, acc, LN):
                         acc[l] += Ginv[b, a, l] * T1[a, l]
                 for l in range(LN):
                     X[b, l] = acc[l] if it == 0 else X[b, l] + acc[l]
+
+
+@numba.njit(**_LJIT)
+def apply(PI, PF, q, rot, dv, q_out, rot_out, R3, LN):
+    """:func:`closure.solve_kernels._apply` of lanes ``0 .. LN − 1``: ``q_out`` (nq, L),
+    ``rot_out`` (ns, 3, 3, L) from ``q``, ``rot`` and the dimensionless steps ``dv`` (nv,
+    L); ``R3`` (1, 3, 3) scratch (an S joint's rotation, one lane at a time)."""
+    o_v, o_q, o_cs = PI[O_SCALV], PI[O_SCALQ], PI[F_COLSC]
+    o_sc, o_so = PI[O_SCOLS], PI[O_SORD]
+    for i in range(q.shape[0]):
+        for l in range(LN):
+            q_out[i, l] = q[i, l]
+    for i in range(PI[O_SCALQ] - PI[O_SCALV]):
+        v, qi = PI[o_v + i], PI[o_q + i]
+        f = PF[o_cs + v]
+        for l in range(LN):
+            q_out[qi, l] = q[qi, l] + dv[v, l] * f
+    for k in range(PI[O_INV] - PI[O_SORD]):
+        c0, c1, c2, si = PI[o_sc + 3 * k], PI[o_sc + 3 * k + 1], PI[o_sc + 3 * k + 2], \
+            PI[o_so + k]
+        for l in range(LN):
+            _exp_so3(dv[c0, l], dv[c1, l], dv[c2, l], R3, np.int64(0))
+            for a in range(3):
+                for b in range(3):
+                    rot_out[si, a, b, l] = R3[0, a, 0] * rot[si, 0, b, l] + \
+                        R3[0, a, 1] * rot[si, 1, b, l] + R3[0, a, 2] * rot[si, 2, b, l]

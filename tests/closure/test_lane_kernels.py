@@ -10,6 +10,7 @@ from closure.batch_dynamics import _Members
 from closure.lstsq import FAST_COND, _expected_rank
 from closure.solver import SolverOptions
 
+from .models import n_fourbar_dynamics
 from .test_dynamics import fourbar_model
 from .test_dynamics_kernels import MODELS, crane_dynamics, rucc_dynamics
 
@@ -29,6 +30,7 @@ CASES = {
     "rucc": (rucc_dynamics, (-0.5, 0.5)),
     "crane": (crane_dynamics, ((-0.05, 0.17), (0.3, -0.05))),
     "non-Grashof near its fold": (_non_grashof, (0.6, FOLD - 1e-2)),
+    "parallelogram through its flat pose": (lambda: n_fourbar_dynamics(2)[1], (-0.5, 0.5)),
 }
 
 
@@ -37,6 +39,8 @@ def _inputs(name, B, rng):
     X = lo + (hi - lo) * rng.uniform(size=(B, lo.size))
     if name.startswith("non-Grashof"):                   # up to 1e-9 rad from the fold
         X[-10:, 0] = FOLD - np.geomspace(1e-2, 1e-9, 10)
+    if name.startswith("parallelogram"):                 # on and near the singular pose
+        X[-6:, 0] = [0.0, 0.0, 1e-12, -1e-9, 1e-6, -1e-3]
     return X
 
 
@@ -71,8 +75,10 @@ def test_the_stage_in_lanes_is_the_one_member_stage_bit_for_bit(name):
     # members that do not converge or do not close, loop transforms past a quarter turn)
     size = np.geomspace(1e-9, 1.5, B)[rng.permutation(B)]
     y0 = np.c_[X + size[:, None] * rng.choice([-1, 1], (B, n)), XD, np.zeros((B, 2))]
-    if name.startswith("non-Grashof"):                   # at the fold: the truncated SVD
+    if name.startswith("non-Grashof"):                   # at the fold
         y0[-5:, 0] = FOLD + np.array([-1e-12, -1e-14, 0.0, 1e-14, 1e-12])
+    if name.startswith("parallelogram"):                 # the Newton's truncated SVD
+        y0[-6:, 0] = [0.0, 1e-15, 0.0, 0.0, -1e-6, 0.0]
     y0 = np.ascontiguousarray(y0)
     codes, its, conds = [], [], []
     for call in range(2):                                # the second from the first's bases
@@ -88,10 +94,12 @@ def test_the_stage_in_lanes_is_the_one_member_stage_bit_for_bit(name):
         conds += blocks[:, mem.layout["fig"] + dk.FIG_COND].tolist()
         y0 = np.ascontiguousarray(y0 + np.c_[0.01 * XD, np.zeros((B, n + 2))])
     # the calls took the lanes' paths: several iteration counts, failures among them
-    assert len(set(its)) >= 3
-    assert max(its) >= 4
+    if not name.startswith("parallelogram"):
+        assert len(set(its)) >= 3
+        assert max(its) >= 4
     if name.startswith("non-Grashof"):
         assert dk.SINGULAR in codes and dk.NOT_CLOSED in codes
+    if name.startswith(("non-Grashof", "parallelogram")):
         assert np.nanmax(conds) > FAST_COND
 
 

@@ -4,9 +4,11 @@
 one :class:`~closure.dynamics.Dynamics` model with
 :func:`closure.batch_integrate.integrate_batch` (scipy's RK45/DOP853 controller per
 member).  Each stage of the active members is one compiled call for them all
-(:func:`closure.dynamics_kernels.step` task ``RHS``), the kernel code that one
+(:func:`closure.dynamics_kernels.stage`, task ``RHS``), the kernel code that one
 right-hand side of :meth:`~closure.dynamics.Dynamics.simulate` runs for its single
-trajectory, with no Python per member; for each member in turn:
+trajectory, with no Python per member (for a one-loop mechanism, 16 members at a time in
+SIMD lanes, :mod:`closure.lane_kernels`: the same arithmetic, so a member's right-hand
+side is the one ``simulate`` computes at the same state, bit for bit); for each member:
 
 - its last solved pose moved along its own tangent (first analogs) to the stage's inputs,
   plus a second-order term along its last rates;
@@ -145,18 +147,14 @@ class _Members:
                                            xd0[ok], opts)
         self.tangent0 = self.tangent.copy()
         self.buf = np.zeros(B * self.size)
-        self._step = dk.step
-        # the step's arguments before the members' arrays; those of the one-pose tasks
-        # (the solver's batch-of-one state) are unused by task RHS: empty
-        self._step_head = (*plan.packed, DI, DF, fopts, iopt, plan._ucols, plan._icols,
-                           np.zeros((0, nq)), np.zeros((0, 0, 3, 3)), np.zeros((0, 0, 4, 4)),
-                           np.zeros((0, 0, 6)), np.zeros(0), np.zeros(0),
-                           np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+        self._stage = dk.stage
+        # the stage's arguments before the members' arrays
+        self._stage_head = (*plan.packed, DI, DF, fopts, iopt, plan._ucols, plan._icols)
 
     def solve(self, members: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, int]:
         """The right-hand side of ``members`` (A,) at states ``y`` (A, 2n + 2) (C-contiguous,
-        writable): one compiled call for them all (:func:`closure.dynamics_kernels.step`
-        ``RHS``: predictor, the solver's Newton, terms).  Returns the members'
+        writable): one compiled call for them all (:func:`closure.dynamics_kernels.stage`,
+        task ``RHS``: predictor, the solver's Newton, terms).  Returns the members'
         blocks (A, size) and the number of members whose code is not ``OK``."""
         A = members.size
         full = A == self.B                  # every member (members are ascending, unique)
@@ -168,9 +166,8 @@ class _Members:
                 self.bx[members], self.tangent[members]
             buf = blocks[members].reshape(-1)
         n = self.n
-        bad = self._step(self.dk.RHS, *self._step_head, bq.reshape(-1),
-                         brot.reshape(-1, 3, 3), bx.reshape(-1), tangent.reshape(-1, n),
-                         y.reshape(-1), buf)
+        bad = self._stage(*self._stage_head, bq.reshape(-1), brot.reshape(-1, 3, 3),
+                          bx.reshape(-1), tangent.reshape(-1, n), y.reshape(-1), buf)
         if not full:                        # the members' bases, tangents and blocks
             self.bq[members], self.brot[members] = bq, brot
             self.bx[members], self.tangent[members] = bx, tangent

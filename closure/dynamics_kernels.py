@@ -19,7 +19,7 @@ the dampers' power and the gravity and spring energies.
 
 Forward dynamics' right-hand side (:meth:`closure.Dynamics.simulate`,
 :class:`closure.integrate.PoseTracker`) is one compiled call, ``step`` task ``RHS``
-(:func:`_stage`): the last solved pose moved along its tangent to the new inputs (plus a
+(:func:`_stage_members`): the last solved pose moved along its tangent to the new inputs (plus a
 second-order term along the last rates), corrected by the position solver's Newton
 (:func:`closure.solve_kernels._newton`: the iterations, tolerances and convergence test
 of :func:`closure.solver.newton`, one implementation for both), the corrected pose judged
@@ -33,8 +33,8 @@ without the terms.  What the kernel cannot settle it reports instead (a pose tha
 not close, a near-singular one, a non-finite force, a mass matrix without a Cholesky
 factor) and the caller takes the pose-by-pose path.  Batched forward dynamics
 (:func:`closure.batch_dynamics.simulate_batch`: B trajectories in lockstep) runs task
-``RHS`` for all its members in one call, each on its own: where the loop Jacobian is
-dense and of full expected rank (one loop), the Newton of
+``RHS`` for all its members in one call (:func:`stage`), each on its own: where the loop
+Jacobian is dense and of full expected rank (one loop), the Newton of
 :data:`closure.lane_kernels.LANES` members at a time in SIMD lanes (:func:`_stage_lanes`:
 the same arithmetic, so every member's right-hand side is the one-member stage's bit for
 bit), else member by member; :func:`nearest_poses` keeps each member's solved pose
@@ -48,7 +48,7 @@ centre of mass and inertia in its link frame, the tree's path signs, the loop
 coefficients, each element's coefficient and free value).
 
 numba compiles the kernels on first use (``cache=True``; about 50 s after the solver's,
-once per installation).  They call kernels of :mod:`closure.solve_kernels`, whose compiled code
+once per installation; :func:`stage`'s lanes about 80 s more when a batch first needs them).  They call kernels of :mod:`closure.solve_kernels`, whose compiled code
 numba copies into theirs, and numba's cache checks only the file of the function it
 caches: the cache index of every kernel here also carries the stamps of
 :mod:`closure.solve_kernels` and :mod:`closure.lstsq` (:func:`_njit`), so that a change
@@ -73,7 +73,7 @@ from .solve_kernels import (_JIT, F_COLSC, F_OFFSET, F_ROWMAP, F_SCALE, H_NC, H_
                             _svd_parts)
 from .solve_kernels import _evaluate as _evaluate_state
 
-__all__ = ["pack", "layout", "options", "step", "PREDICT", "TRACK", "RHS", "TERMS",
+__all__ = ["pack", "layout", "options", "step", "stage", "PREDICT", "TRACK", "RHS", "TERMS",
            "nearest_poses", "OK",
            "NOT_CLOSED", "SINGULAR", "NON_FINITE", "NOT_SPD"]
 
@@ -781,7 +781,7 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
       iterations, exact condition number (truncated SVD where the solver took the
       Cholesky path), converged, closed (converged and residual at most ``fopts[1]``);
       where it closed it becomes the base (``bq``, ``brot``, ``bx``).
-    * ``RHS``: the right-hand side of B ≥ 1 trajectories (:func:`_stage`; ``q`` ...
+    * ``RHS``: the right-hand side of B ≥ 1 trajectories (:func:`_stage_members`; ``q`` ...
       ``flag`` unused): for member b (base pose, inputs and tangent stacked in ``bq``
       (B·nq), ``brot`` (B·ns, 3, 3), ``bx`` (B·ni) and ``tangent`` (B·nv, ni), its state in
       ``y`` (B·(2 ni + 2)), its fields in block b of ``buf``) ``PREDICT`` with a
@@ -808,8 +808,8 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
                  np.zeros((1, 3, 3)), buf[o_qdd:o_qdd + nv], 0.0)
         return OK
     if task == RHS:
-        return _stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y,
-                      buf)
+        return _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx,
+                              tangent, y, buf)
     rank = iopt[I_RANK]
     blk = iopt[B_SIZE]
     o_M, o_h, o_Q, o_f, o_qd, o_en, o_fig = iopt[B_M], iopt[B_H], iopt[B_Q], iopt[B_FIRST], \
@@ -942,8 +942,27 @@ def _settle(PI, PF, fopts, iopt, ucols, icols, q, rot, S, res, its, flag, bq, br
 
 
 @_njit
-def _stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y, buf):
-    """Task ``RHS`` of :func:`step`: the right-hand side of every member b of B
+def stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y, buf):
+    """Task ``RHS`` of :func:`step` for the B members of a batch
+    (:func:`closure.batch_dynamics.simulate_batch`), with :func:`step`'s arguments from
+    ``PI`` on (``q`` ... ``flag`` left out): :func:`_stage_lanes` where B > 1 and the loop
+    Jacobian is dense and of full expected rank (one loop), else :func:`_stage_members`.
+    An entry of its own, so that the lanes compile when a batch first needs them, not with
+    :func:`step`."""
+    ni, nu, rank = icols.shape[0], ucols.shape[0], iopt[I_RANK]
+    m = 6 * PI[H_NC]
+    if y.shape[0] // (2 * ni + 2) > 1 and m > 0 and nu > 0 and \
+            min(rank, m, nu) == min(m, nu) and _pattern(PI, PF, ucols)[P_DENSE] == 1:
+        return _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx,
+                            tangent, y, buf)
+    return _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx,
+                          tangent, y, buf)
+
+
+@_njit
+def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y,
+                   buf):
+    """The right-hand side of every member b of B
     trajectories (one: :meth:`closure.Dynamics.simulate`; B:
     :func:`closure.batch_dynamics.simulate_batch`), each on its own, in one pass: the
     member's base pose moved along its tangent to the stage's inputs with the
@@ -962,9 +981,6 @@ def _stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent,
     nq, ns = bq.shape[0] // max(B, 1), brot.shape[0] // max(B, 1)
     P, Pi = _pattern(PI, PF, ucols), _pattern(PI, PF, icols)
     m = P[P_M]
-    if B > 1 and P[P_DENSE] == 1 and m > 0 and nu > 0 and min(rank, m, nu) == min(m, nu):
-        return _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx,
-                            tangent, y, buf)
     # the Newton's scratch (its dense factors wide enough for the terms' ni right-hand
     # sides), two member states, the terms' scratch: owned here, used borrowed
     own = (P, Pi, _sp_work(P, 1), _lsq_work(m, nu, ni), np.zeros(6 * Pi[P_NNZ]),
@@ -1013,15 +1029,18 @@ def _stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent,
 @_njit
 def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y,
                  buf):
-    """:func:`_stage` for B > 1 members of a mechanism whose loop Jacobian is dense and of
-    full expected rank, :data:`closure.lane_kernels.LANES` members at a time: the solver's
-    Newton (:func:`closure.solve_kernels._newton`, its iterations, tests and backtracking
-    per member) with the kinematic state, the Jacobian, its factorisation and the steps of
-    the whole block in one call each (:mod:`closure.lane_kernels`: the same arithmetic,
-    member by member in SIMD lanes), a member's terms (:func:`_pose_rhs`) as soon as it
-    converges.  A member whose Gram matrix has no Cholesky factor within ``FAST_COND``
-    takes the one-member truncated SVD.  Every member's outputs are :func:`_stage`'s, bit
-    for bit."""
+    """:func:`_stage_members` for B > 1 members of a mechanism whose loop Jacobian is
+    dense and of full expected rank, :data:`closure.lane_kernels.LANES` members at a time
+    (:mod:`closure.lane_kernels`: the same arithmetic, member by member in SIMD lanes):
+    the predictors and the steps applied, the kinematic state, the Jacobian, its
+    factorisation and the steps of the whole block in one call each, the solver's Newton
+    (:func:`closure.solve_kernels._newton`: its iterations, tests and backtracking) per
+    member, where a Gram matrix has no Cholesky factor within ``FAST_COND`` the
+    one-member truncated SVD; the members that converged on the Cholesky path then have
+    their terms in lanes (:func:`_terms_lanes`) and are judged and moved on
+    (:func:`_settle`); the others (not converged, or converged on the SVD path) are run
+    again by :func:`_stage_members`.  Every member's outputs are :func:`_stage_members`',
+    bit for bit."""
     ni, nu, rank, maxiter = icols.shape[0], ucols.shape[0], iopt[I_RANK], iopt[I_MAXITER]
     nv, nj, nl, nc = PI[H_NV], PI[H_NJ], PI[H_NL], PI[H_NC]
     mm, blk, o_qdd, o_inq = 2 * ni + 2, iopt[B_SIZE], iopt[B_QDD], PI[O_INQ]
@@ -1043,11 +1062,10 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
             np.zeros((3, L))),
            (np.zeros((nu, L)), np.zeros((k, L)), np.zeros((m, L)), np.zeros(L),
             np.zeros((m, L)), np.zeros((nv, L))),
-           (np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nl, 4, 4)), np.zeros((nv, 6)),
-            np.zeros((1, 3, 3)), np.zeros(nv)),
+           (np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nv, 6)), np.zeros((1, 3, 3))),
            (np.zeros((m, nu)), np.zeros((m, 1)), np.zeros((nu, 1))), _lsq_work(m, nu, ni),
            _work(PI, ni, nu),
-           (np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L)),
+           (np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L)),
            (np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.bool_)),
            # the converged members' poses and factorisations, their terms
            _lk.lane_state(nq, ns, nj, nl, nc, nv),
@@ -1061,10 +1079,10 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
     A, fa, T, tmp, T1, r1, w3 = own[2]
     J, G, Lc, Linv, Ginv, fl, il, vec = own[3]
     X, T1l, T2l, acc, rs, stp = own[4]
-    gq, grot, glink, gS, R3, qdd = own[5]
+    gq, grot, gS, R3 = own[5]
     Jd, Rd, Xd = own[6]
     Wd, wk = _borrowed_lsq_work(own[7]), _borrowed_work(own[8])
-    n_res, prev, n_cond, inv0, wait = own[9]
+    n_res, prev, inv0, wait = own[9]
     n_its, done = own[10]
     fin = _borrowed_lanes(own[11])
     fJ, fGinv, finv0, fxd, fres, fits, ready = own[12]
@@ -1078,13 +1096,12 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
         _borrowed(icols)
     bq, brot, bx, tangent, y, buf = _borrowed(bq), _borrowed(brot), _borrowed(bx), \
         _borrowed(tangent), _borrowed(y), _borrowed(buf)
-    gq, grot, glink, gS, R3, qdd = _borrowed(gq), _borrowed(grot), _borrowed(glink), \
-        _borrowed(gS), _borrowed(R3), _borrowed(qdd)
+    gq, grot, gS, R3 = _borrowed(gq), _borrowed(grot), _borrowed(gS), _borrowed(R3)
     Jd, Rd, Xd, rs, stp = _borrowed(Jd), _borrowed(Rd), _borrowed(Xd), _borrowed(rs), \
         _borrowed(stp)
     X, fl, il = _borrowed(X), _borrowed(fl), _borrowed(il)
-    n_res, prev, n_cond, inv0, wait = _borrowed(n_res), _borrowed(prev), _borrowed(n_cond), \
-        _borrowed(inv0), _borrowed(wait)
+    n_res, prev, inv0, wait = _borrowed(n_res), _borrowed(prev), _borrowed(inv0), \
+        _borrowed(wait)
     n_its, done = _borrowed(n_its), _borrowed(done)
     n_bad = 0
     for b0 in range(0, B, L):
@@ -1105,7 +1122,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
                      r1, w3, LN)
         for l in range(LN):
             n_res[l] = _lane_residual(cur[3], scale, rs, l)
-            prev[l], n_its[l], done[l], n_cond[l], wait[l] = np.inf, 0, False, 1.0, 0.0
+            prev[l], n_its[l], done[l], wait[l] = np.inf, 0, False, 0.0
             ready[l] = False
         n_ready = 0
         active = LN
@@ -1121,10 +1138,10 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
                 n_its[l] += 1
                 fast = fl[l] == 1.0
                 if fast:
-                    n_cond[l], inv0[l] = np.nan, il[l]
+                    inv0[l] = il[l]
                 else:                           # the truncated SVD, one member
                     _from_lane2(J, Jd, l)
-                    fast, n_cond[l], inv0[l] = _lsq(Jd, rank, Wd)
+                    fast, _, inv0[l] = _lsq(Jd, rank, Wd)
                     for a in range(m):
                         Rd[a, 0] = rs[a, l]
                     _dn_solve(Jd, fast, Wd[3], Wd[4], Wd[5], Wd[6], Rd, Xd, 0, Wd[8], Wd[9])
@@ -1143,20 +1160,13 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
                 tol_step = max(xtl, noise * ism)
                 conv = big <= tol_step and (n_res[l] <= floor or stalled)
                 prev[l] = n_res[l]
-                if conv:                        # the member's terms, with this factorisation
+                if conv:
                     done[l] = True
                     active -= 1
-                    if fast:                    # in lanes, once the block's Newton is done
+                    if fast:                    # its terms in lanes, once the Newton is done
                         _lane_copy(cur, fin, J, fJ, Ginv, fGinv, l)
                         finv0[l], fres[l], fits[l], ready[l] = inv0[l], n_res[l], n_its[l], True
                         n_ready += 1
-                        continue
-                    code = _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, cur, l, gq,
-                                     grot, glink, gS, n_res[l], n_its[l], True, bq, brot, bx,
-                                     tangent, y, buf, b0 + l, wk, qdd,
-                                     (True, Jd, Wd, fast, n_cond[l], inv0[l]))
-                    if code != OK:
-                        n_bad += 1
                     continue
                 fac = min(1.0, max_step / max(big, 1e-300))
                 for c in range(nv):
@@ -1214,14 +1224,14 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
                 buf[o + iopt[B_CODE]] = code
                 if code != OK:
                     n_bad += 1
-        for l in range(LN):                     # not converged: judged, the terms factor
-            if done[l]:
+        for l in range(LN):                     # the others: the one-member stage, again
+            if ready[l]:
                 continue
-            code = _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, cur, l, gq, grot, glink,
-                             gS, n_res[l], n_its[l], False, bq, brot, bx, tangent, y, buf,
-                             b0 + l, wk, qdd, (False, Jd, Wd, False, 1.0, 0.0))
-            if code != OK:
-                n_bad += 1
+            b = b0 + l
+            n_bad += _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols,
+                                    bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns],
+                                    bx[b * ni:(b + 1) * ni], tangent[b * nv:(b + 1) * nv],
+                                    y[b * mm:(b + 1) * mm], buf[b * blk:(b + 1) * blk])
     _keep_alive(own)
     return n_bad
 
@@ -1320,33 +1330,6 @@ def _lane_residual(r, scale, rs, l):
             if abs(v) > big or v != v:
                 big = abs(v)
     return big
-
-
-@numba.njit(inline="always", **_JIT)
-def _lane_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, st, l, gq, grot, glink, gS, res, its,
-              conv, bq, brot, bx, tangent, y, buf, b, wk, qdd, fac):
-    """:func:`_pose_rhs` of member ``b`` whose corrected pose is lane ``l`` of the block
-    state ``st`` (:func:`closure.lane_kernels.lane_state`), through one member's scratch
-    ``gq``, ``grot``, ``glink``, ``gS``; its code also into its block's ``code``."""
-    ni = icols.shape[0]
-    nv, nq, ns, blk = PI[H_NV], gq.shape[0], grot.shape[0], iopt[B_SIZE]
-    mm = 2 * ni + 2
-    _from_lane(st[0], st[1], gq, grot, l)
-    for i in range(glink.shape[0]):
-        for a in range(4):
-            for c in range(4):
-                glink[i, a, c] = st[2][i, a, c, l]
-    for c in range(nv):
-        for s in range(6):
-            gS[c, s] = st[4][c, s, l]
-    o = b * blk
-    code = _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, gq, grot, glink, gS, res, its,
-                     np.int64(1 if conv else 0), bq[b * nq:(b + 1) * nq],
-                     brot[b * ns:(b + 1) * ns], bx[b * ni:(b + 1) * ni],
-                     tangent[b * nv:(b + 1) * nv], y[b * mm:(b + 1) * mm], buf[o:o + blk], wk,
-                     qdd, fac)
-    buf[o + iopt[B_CODE]] = code
-    return code
 
 
 @numba.njit(inline="always", **_JIT)

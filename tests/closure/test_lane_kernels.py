@@ -45,18 +45,21 @@ def _inputs(name, B, rng):
 
 
 def _stage(mem, y, per_member):
-    """Task RHS for every member: one call (blocks of lanes) or one call per member (the
-    one-member stage).  Returns the members' arrays after the call and the bad count."""
+    """Task RHS for every member: one call of the batch's stage (blocks of lanes) or one
+    call of simulate's step per member (the one-member stage).  Returns the members' arrays after the call and the bad count."""
     B, n = mem.B, mem.n
     bq, brot, bx, tan = mem.bq.copy(), mem.brot.copy(), mem.bx.copy(), mem.tangent.copy()
     buf, y = mem.buf.copy(), y.copy()
-    if per_member:
-        blocks = buf.reshape(B, -1)
-        bad = sum(dk.step(dk.RHS, *mem._step_head, bq[b], brot[b], bx[b], tan[b], y[b],
-                          blocks[b]) for b in range(B))
+    if per_member:                                       # simulate's: one member a call
+        blocks, nq = buf.reshape(B, -1), bq.shape[1]
+        head = (dk.RHS, *mem._stage_head, np.zeros((0, nq)), np.zeros((0, 0, 3, 3)),
+                np.zeros((0, 0, 4, 4)), np.zeros((0, 0, 6)), np.zeros(0), np.zeros(0),
+                np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+        bad = sum(dk.step(*head, bq[b], brot[b], bx[b], tan[b], y[b], blocks[b])
+                  for b in range(B))
     else:
-        bad = dk.step(dk.RHS, *mem._step_head, bq.reshape(-1), brot.reshape(-1, 3, 3),
-                      bx.reshape(-1), tan.reshape(-1, n), y.reshape(-1), buf)
+        bad = dk.stage(*mem._stage_head, bq.reshape(-1), brot.reshape(-1, 3, 3),
+                       bx.reshape(-1), tan.reshape(-1, n), y.reshape(-1), buf)
     return (bq, brot, bx, tan, buf, y), bad
 
 

@@ -47,12 +47,13 @@ spring's and damper's coordinates) and ``DF`` (float64: gravity, each body's mas
 centre of mass and inertia in its link frame, the tree's path signs, the loop
 coefficients, each element's coefficient and free value).
 
-numba compiles the kernels on first use (``cache=True``; about 50 s after the solver's,
-once per installation; :func:`stage`'s lanes about 80 s more when a batch first needs them).  They call kernels of :mod:`closure.solve_kernels`, whose compiled code
-numba copies into theirs, and numba's cache checks only the file of the function it
-caches: the cache index of every kernel here also carries the stamps of
-:mod:`closure.solve_kernels` and :mod:`closure.lstsq` (:func:`_njit`), so that a change
-there recompiles these kernels too.
+numba compiles the kernels on first use (``cache=True``, once per installation: about
+50 s after the solver's, :func:`stage`'s lanes about 80 s more when a batch first needs
+them).  They call kernels of :mod:`closure.solve_kernels` and
+:mod:`closure.lane_kernels`, whose compiled code numba copies into theirs, and numba's
+cache checks only the file of the function it caches: the cache index of every kernel
+here also carries the stamps of those modules and :mod:`closure.lstsq` (:func:`_njit`),
+so that a change there recompiles these kernels too.
 """
 from __future__ import annotations
 

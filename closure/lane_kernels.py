@@ -213,7 +213,8 @@ def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, tmp, T1, r1, w3, LN):
             e = 1 / 12 + th2 / 720 if th2 < 1e-8 else \
                 (1 - th * s_ / (2 * (1 - tmp[6, l]))) / th2
             p0, p1, p2 = T[2, 0, 3, l], T[2, 1, 3, l], T[2, 2, 3, l]
-            x0 = w1 * p2 - w2 * p1                      # V⁻¹ p = p − ½ ω × p + e ω × (ω × p)
+            # V⁻¹ p = p − ½ ω × p + e ω × (ω × p)
+            x0 = w1 * p2 - w2 * p1
             x1 = w2 * p0 - w0 * p2
             x2 = w0 * p1 - w1 * p0
             y0 = w1 * x2 - w2 * x1

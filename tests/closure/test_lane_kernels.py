@@ -46,7 +46,8 @@ def _inputs(name, B, rng):
 
 def _stage(mem, y, per_member):
     """Task RHS for every member: one call of the batch's stage (blocks of lanes) or one
-    call of simulate's step per member (the one-member stage).  Returns the members' arrays after the call and the bad count."""
+    call of simulate's step per member (the one-member stage).  Returns the members'
+    arrays after the call and the bad count."""
     B, n = mem.B, mem.n
     bq, brot, bx, tan = mem.bq.copy(), mem.brot.copy(), mem.bx.copy(), mem.tangent.copy()
     buf, y = mem.buf.copy(), y.copy()

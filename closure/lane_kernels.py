@@ -18,8 +18,9 @@ log from its symmetric part, :func:`closure.solve_kernels._loop_log`: :func:`eva
 does it per lane itself), a Gram matrix without a Cholesky factor or whose condition
 estimate exceeds ``FAST_COND`` (:func:`factor`: the truncated SVD).
 
-:func:`closure.dynamics_kernels.step`'s batched right-hand side (task ``RHS`` for B
-members) runs the solver's Newton on blocks of :data:`LANES` members with these kernels.
+:func:`closure.dynamics_kernels.stage` (batched forward dynamics' right-hand side, task
+``RHS`` for B members) runs the solver's Newton and the terms on blocks of :data:`LANES`
+members with these kernels.
 
 The kernels are compiled with LLVM's ``noalias`` on their array arguments (numba's flag of
 that name, otherwise set only for parallel loops): without it the compiler must assume a

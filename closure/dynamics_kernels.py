@@ -70,8 +70,8 @@ from .solve_kernels import (_JIT, F_COLSC, F_OFFSET, F_ROWMAP, F_SCALE, H_NC, H_
                             O_INQ, P_DENSE, P_M, P_NNZ, _apply, _borrowed, _borrowed_lsq_work,
                             _borrowed_sp_work, _borrowed_state, _cholesky, _dn_solve,
                             _inv_smin, _keep_alive, _lsq, _lsq_solve, _lsq_work,
-                            _member_state, _newton, _pattern, _scaled_jacobian, _sp_work,
-                            _svd_parts)
+                            _member_state, _newton, _pattern, _scaled_jacobian,
+                            _scaled_residual, _sp_work, _svd_parts)
 from .solve_kernels import _evaluate as _evaluate_state
 
 __all__ = ["pack", "layout", "options", "step", "stage", "PREDICT", "TRACK", "RHS", "TERMS",
@@ -1122,7 +1122,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
         _lk.evaluate(PI, PF, PM, cur[0], cur[1], cur[2], cur[3], cur[4], A, fa, T, tmp, T1,
                      r1, w3, LN)
         for l in range(LN):
-            n_res[l] = _lane_residual(cur[3], scale, rs, l)
+            n_res[l] = _scaled_residual(cur[3][:, :, l], scale, rs[:, l])
             prev[l], n_its[l], done[l], wait[l] = np.inf, 0, False, 0.0
             ready[l] = False
         n_ready = 0
@@ -1191,7 +1191,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
                 for l in range(LN):
                     if done[l] or wait[l] == 0.0:
                         continue
-                    rn = _lane_residual(tri[3], scale, rs, l)
+                    rn = _scaled_residual(tri[3][:, :, l], scale, rs[:, l])
                     if rn <= n_res[l] * (1 + 1e-9) or rn < floor or hs == 7:
                         n_res[l] = rn
                         wait[l] = 0.0
@@ -1215,9 +1215,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
                 _lane_terms_out(iopt, t_first, t_qd, t_qdd, t_M, t_h, t_Q, t_en,
                                 buf[o:o + blk], l)
                 _from_lane(fin[0], fin[1], gq, grot, l)
-                for c in range(nv):
-                    for s in range(6):
-                        gS[c, s] = fin[4][c, s, l]
+                _from_lane2(fin[4], gS, l)
                 code = _settle(PI, PF, fopts, iopt, ucols, icols, gq, grot, gS, fres[l], fits[l],
                                np.int64(1), bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns],
                                bx[b * ni:(b + 1) * ni], tangent[b * nv:(b + 1) * nv],
@@ -1317,20 +1315,6 @@ def _from_lane2(Ml, M, l):
     for a in range(M.shape[0]):
         for b in range(M.shape[1]):
             M[a, b] = Ml[a, b, l]
-
-
-@numba.njit(inline="always", **_JIT)
-def _lane_residual(r, scale, rs, l):
-    """:func:`closure.solve_kernels._scaled_residual` of lane ``l`` of ``r`` (nc, 6, L)
-    into lane ``l`` of ``rs`` (6 nc, L)."""
-    big = 0.0
-    for k in range(r.shape[0]):
-        for s in range(6):
-            v = r[k, s, l] / scale if s < 3 else r[k, s, l]
-            rs[6 * k + s, l] = v
-            if abs(v) > big or v != v:
-                big = abs(v)
-    return big
 
 
 @numba.njit(inline="always", **_JIT)

@@ -473,7 +473,7 @@ def _twists(PI, PF, q, fa, S):
         S[ci, 0], S[ci, 1], S[ci, 2] = v0, v1, v2
 
 
-@numba.njit(**_JIT)
+@numba.njit(inline="always", **_JIT)
 def _scaled_residual(r, scale, out):
     """Dimensionless loop residual (translations / scale) into ``out``; returns its largest
     absolute entry (0 without loops)."""

@@ -31,9 +31,9 @@ point), is stopped (status 1 with a message) while the others go on.
 At the output times the energies are those ``simulate`` reports: during the run each
 member's solved pose nearest in time to every output time is kept
 (:func:`closure.dynamics_kernels.nearest_poses`), its pose at the output time follows by
-the tangent predictor and the solver's Newton (all members and times in one batch), and
-kinetic, potential (gravity and springs) and total energy and the balance
-``energy + dissipated − work − E(0)`` come from the compiled terms there.
+the tangent predictor and the solver's Newton, and kinetic, potential (gravity and
+springs) and total energy and the balance ``energy + dissipated − work − E(0)`` come
+from the compiled terms there: all members and times in one call of the stage.
 """
 from __future__ import annotations
 
@@ -118,9 +118,9 @@ class _Members:
 
     Per member: the base pose (``bq`` (B, nq), ``brot`` (B, ns, 3, 3) at inputs ``bx``
     (B, n): the last pose solved for it), its tangent (first analogs, ``tangent``
-    (B, nv, n)) and its block of the kernels' fields (``buf``, B blocks: its last
-    right-hand side, whose rates and velocity-product accelerations give the predictor's
-    second-order term), updated in place by the kernels.
+    (B, nv, n)) and its block of the kernels' fields (``blocks`` (B, size) over ``buf``:
+    its last right-hand side, whose rates and velocity-product accelerations give the
+    predictor's second-order term), updated in place by the kernels.
     """
 
     def __init__(self, dynamics, start: Pose, ok: np.ndarray, xd0: np.ndarray,
@@ -147,33 +147,20 @@ class _Members:
                                            xd0[ok], opts)
         self.tangent0 = self.tangent.copy()
         self.buf = np.zeros(B * self.size)
+        self.blocks = self.buf.reshape(B, self.size)
         self._stage = dk.stage
         # the stage's arguments before the members' arrays
         self._stage_head = (*plan.packed, DI, DF, fopts, iopt, plan._ucols, plan._icols)
 
-    def solve(self, members: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, int]:
-        """The right-hand side of ``members`` (A,) at states ``y`` (A, 2n + 2) (C-contiguous,
-        writable): one compiled call for them all (:func:`closure.dynamics_kernels.stage`,
-        task ``RHS``: predictor, the solver's Newton, terms).  Returns the members'
-        blocks (A, size) and the number of members whose code is not ``OK``."""
-        A = members.size
-        full = A == self.B                  # every member (members are ascending, unique)
-        blocks = self.buf.reshape(self.B, self.size)
-        if full:
-            bq, brot, bx, tangent, buf = self.bq, self.brot, self.bx, self.tangent, self.buf
-        else:
-            bq, brot, bx, tangent = self.bq[members], self.brot[members], \
-                self.bx[members], self.tangent[members]
-            buf = blocks[members].reshape(-1)
-        n = self.n
-        bad = self._stage(*self._stage_head, bq.reshape(-1), brot.reshape(-1, 3, 3),
-                          bx.reshape(-1), tangent.reshape(-1, n), y.reshape(-1), buf)
-        if not full:                        # the members' bases, tangents and blocks
-            self.bq[members], self.brot[members] = bq, brot
-            self.bx[members], self.tangent[members] = bx, tangent
-            blocks[members] = buf.reshape(A, self.size)
-            return buf.reshape(A, self.size), bad
-        return blocks, bad
+    def solve(self, members: np.ndarray, y: np.ndarray) -> int:
+        """The right-hand side of ``members`` (A,) int64 at states ``y`` (A, 2n + 2)
+        (C-contiguous): one compiled call for them all
+        (:func:`closure.dynamics_kernels.stage`, task ``RHS``: predictor, the solver's
+        Newton, terms), into their rows of :attr:`blocks` (their bases and tangents moved
+        in place).  Returns the number of members whose code is not ``OK``."""
+        return self._stage(*self._stage_head, members, self.bq.reshape(-1),
+                           self.brot.reshape(-1, 3, 3), self.bx.reshape(-1),
+                           self.tangent.reshape(-1, self.n), y.reshape(-1), self.buf)
 
     def keep_outputs(self, t_eval: np.ndarray, direction: float) -> None:
         """From now on keep, for every output time of ``t_eval`` (N,) and every member, its
@@ -200,19 +187,36 @@ class _Members:
         o = self.layout[name]
         return blocks[:, o:o + int(np.prod(shape))].reshape((len(blocks),) + shape)
 
-    def pose(self, g: int, blocks: np.ndarray, a: int) -> Pose:
-        """The Pose of member ``g``'s base with the figures of block ``a`` (a condition
-        left NaN computed on demand)."""
+    def pose(self, g: int) -> Pose:
+        """The Pose of member ``g``'s base with the figures of its block."""
+        return self.pose_of(self.bq[g], self.brot[g], self.bx[g],
+                            self.field(self.blocks, "fig", (5,))[g])
+
+    def pose_of(self, q, rot, x, fig) -> Pose:
+        """The one-row Pose of coordinates ``q`` (nq,), rotations ``rot`` (ns, 3, 3) at
+        inputs ``x`` (n,) with a block's figures ``fig`` (5,) (a condition left NaN
+        computed on demand)."""
         dk, mech = self.dk, self.mech
-        fig = self.field(blocks, "fig", (5,))[a]
         cond = np.array([fig[dk.FIG_COND]])
-        p = Pose(mech, self.bx[g][None].copy(), self.bq[g][None].copy(),
-                 self.brot[g][None].copy(), np.array([fig[dk.FIG_RES]]),
-                 np.array([int(fig[dk.FIG_ITS])]), cond, np.zeros(1, dtype=int),
-                 _cond_pending=bool(np.isnan(cond[0])))
+        p = Pose(mech, x[None].copy(), q[None].copy(), rot[None].copy(),
+                 np.array([fig[dk.FIG_RES]]), np.array([int(fig[dk.FIG_ITS])]), cond,
+                 np.zeros(1, dtype=int), _cond_pending=bool(np.isnan(cond[0])))
         p.status = _status(mech, p.residual, p.condition, np.array([bool(fig[dk.FIG_CONV])]),
                            self.opts)
         return p
+
+    def solve_from(self, q, rot, x, tangent, y) -> np.ndarray:
+        """The stage (:meth:`solve`) of P poses from given bases instead of the members':
+        coordinates ``q`` (P, nq), rotations ``rot`` (P, ns, 3, 3) at inputs ``x`` (P, n)
+        with tangents ``tangent`` (P, nv, n), each moved to the inputs of its state ``y``
+        (P, 2n + 2) with the first-order predictor (no earlier right-hand side) and
+        corrected there; the arrays are C-contiguous and are moved in place as the
+        members' bases are.  Returns the P fresh blocks (P, size)."""
+        P = len(y)
+        buf = np.zeros(P * self.size)
+        self._stage(*self._stage_head, np.arange(P), q.reshape(-1), rot.reshape(-1, 3, 3),
+                    x.reshape(-1), tangent.reshape(-1, self.n), y.reshape(-1), buf)
+        return buf.reshape(P, self.size)
 
 
 def _start_tangents(mech, start: Pose, xd0: np.ndarray, opts: SolverOptions) -> np.ndarray:
@@ -338,20 +342,20 @@ def _right_hand_side(dynamics, mem: _Members, ok0: np.ndarray, drive, opts: Solv
             return M, h, Q, first, diss, work
         return fn
 
-    def by_pose(g, a, blocks, t, y, code):
-        """Member ``g`` (row ``a``) where the kernel returned ``code``: the dynamics'
-        limit along its branch near a singular configuration, or the terms solved here
-        (as ``Dynamics.simulate``); returns ``(dydt, reason)``."""
+    def by_pose(g, t, y, code):
+        """Member ``g`` where the kernel returned ``code``: the dynamics' limit along its
+        branch near a singular configuration, or the terms solved here (as
+        ``Dynamics.simulate``); returns ``(dydt, reason)``."""
         x, xd = y[:n], y[n:2 * n]
-        fig = mem.field(blocks, "fig", (5,))[a]
+        fig = mem.field(mem.blocks, "fig", (5,))[g]
         if code == dk.NOT_CLOSED:
             return None, (f"the pose does not close (residual {fig[dk.FIG_RES]:.2e}, "
                           f"condition {fig[dk.FIG_COND]:.3g}) at x = {x.tolist()} "
                           f"(t = {t:.6g}): the motion reached past a fold of the loop "
                           "equations")
-        p = mem.pose(g, blocks, a)
+        p = mem.pose(g)
         cond = p.condition[0]
-        if cond > cond_limit and is_fold(mech, p, mem.field(blocks, "first", (nv, n))[a]):
+        if cond > cond_limit and is_fold(mech, p, mem.field(mem.blocks, "first", (nv, n))[g]):
             return None, (f"dead point: condition {cond:.3e} above {cond_limit:.3e} at "
                           f"x = {x.tolist()} (t = {t:.6g}), where the input rates blow up "
                           "(a fold)")
@@ -387,10 +391,11 @@ def _right_hand_side(dynamics, mem: _Members, ok0: np.ndarray, drive, opts: Solv
             mk = np.array(members[rows], dtype=np.int64)
             yk = np.array(y[rows], dtype=float, order="C")
         tk = np.asarray(t)[rows]
-        blocks, n_bad = mem.solve(mk, yk)
-        out = mem.field(blocks, "out", (2 * n + 2,)).copy()
+        n_bad = mem.solve(mk, yk)
+        blocks = mem.blocks
+        out = mem.field(blocks, "out", (2 * n + 2,))[mk]
         regular = n_bad == 0
-        code = None if regular else mem.field(blocks, "code", (1,))[:, 0].astype(np.int64)
+        code = None if regular else mem.field(blocks, "code", (1,))[mk, 0].astype(np.int64)
 
         def fail(a, why):
             nonlocal failed
@@ -401,13 +406,14 @@ def _right_hand_side(dynamics, mem: _Members, ok0: np.ndarray, drive, opts: Solv
 
         if forces or drive is not None:           # given forces and drives: M⁻¹ F
             gi = slice(None) if regular else np.nonzero(code == dk.OK)[0]
+            mg = mk[gi]
             xd = yk[gi, n:2 * n]
-            first = mem.field(blocks, "first", (nv, n))[gi]
-            qd = mem.field(blocks, "qd", (nv,))[gi]
+            first = mem.field(blocks, "first", (nv, n))[mg]
+            qd = mem.field(blocks, "qd", (nv,))[mg]
             F = np.zeros(xd.shape)
             dw = np.zeros(len(xd))
             if forces:
-                q = mem.field(blocks, "q", (mech.plan.nq,))[gi]
+                q = mem.field(blocks, "q", (mech.plan.nq,))[mg]
                 for e in forces:
                     rate = qd[:, e.column]
                     tau = np.broadcast_to(np.asarray(e.value(tk[gi], q[:, e.qcolumn], rate),
@@ -418,7 +424,7 @@ def _right_hand_side(dynamics, mem: _Members, ok0: np.ndarray, drive, opts: Solv
                 tau = drive_of(tk[gi], yk[gi, :n], xd)
                 F += tau
                 dw += np.einsum("ij,ij->i", tau, xd)
-            Minv = mem.field(blocks, "Minv", (n, n))[gi]
+            Minv = mem.field(blocks, "Minv", (n, n))[mg]
             out[gi, n:2 * n] += np.einsum("aij,aj->ai", Minv, F)
             out[gi, 2 * n + 1] = dw
             bad = ~np.isfinite(F).all(axis=1)
@@ -427,7 +433,7 @@ def _right_hand_side(dynamics, mem: _Members, ok0: np.ndarray, drive, opts: Solv
                         "joint-force functions returned NaN or inf)")
         if not regular:                           # pose by pose: what the kernel left
             for a in np.nonzero(code != dk.OK)[0]:
-                row, why = by_pose(int(mk[a]), a, blocks, float(tk[a]), yk[a], int(code[a]))
+                row, why = by_pose(int(mk[a]), float(tk[a]), yk[a], int(code[a]))
                 if row is None:
                     fail(a, why)
                 else:
@@ -450,13 +456,14 @@ def _energies(dynamics, start: Pose, ok0: np.ndarray, xd0: np.ndarray, mem: _Mem
     ``out``, as ``Dynamics.simulate`` forms them: each member's pose at an output time
     from its solved pose nearest in time (kept during the run; an output time no stage
     came near takes the nearest kept pose of another output time) by the tangent
-    predictor and the solver's Newton, all in one batch; the energies there by the
-    compiled terms; a pose whose condition exceeds ``TANGENT_COND`` takes the energies'
-    limit along its branch (:func:`closure.integrate.regular_limit`), as does a start
-    above ``RHS_COND``."""
+    predictor and the solver's Newton, and the energies there by the compiled terms, all
+    members and times in one call of the batch's stage (:meth:`_Members.solve_from`); a
+    pose whose condition exceeds ``TANGENT_COND`` takes the energies' limit along its
+    branch (:func:`closure.integrate.regular_limit`), as does a start above
+    ``RHS_COND``."""
     from .integrate import RHS_COND, regular_limit
-    from .solver import TANGENT_COND, newton, predict
-    mech = dynamics.m
+    from .solver import TANGENT_COND
+    mech, dk = dynamics.m, mem.dk
     n = xd0.shape[1]
     B, N = mem.near.shape
 
@@ -491,22 +498,25 @@ def _energies(dynamics, start: Pose, ok0: np.ndarray, xd0: np.ndarray, mem: _Mem
     if not bi.size:
         return
     si = src[bi, ki]
-    kq, krot, kx, ktan = (a[bi, si] for a in mem.kept)
-    x, xd = X[bi, ki], XD[bi, ki]
+    kq, krot, kx, ktan = (a[bi, si] for a in mem.kept)         # copies, moved by the stage
+    tan0 = ktan.copy()
+    xd = XD[bi, ki]
+    y = np.ascontiguousarray(np.concatenate([X[bi, ki], xd, np.zeros((bi.size, 2))], axis=1))
     with _serial_blas_for(mech.plan, mech.plan._ucols.size):
-        pred, _ = predict(mech, (kq, krot), ktan, kx, x)
-        st, r, it, c, conv, ks = newton(mech, pred, opts, exact_cond=False)
-    pose = Pose(mech, x.copy(), st[0], st[1], r, it, c, _status(mech, r, c, conv, opts),
-                _ks=ks, _cond_pending=True)
-    closed = np.asarray(pose.status) < 2
-    if not closed.all():                            # energies NaN where it did not close
-        keep = np.nonzero(closed)[0]
-        pose, bi, ki, ktan, xd = _take_pose(pose, keep), bi[keep], ki[keep], ktan[keep], \
-            xd[keep]
-    kin, vg, vs, tot = energies(pose, xd)
-    for j in np.nonzero(pose._raw_condition > TANGENT_COND)[0]:   # singular: the limit
-        kin[j], vg[j], vs[j], tot[j] = limit(_take_pose(pose, [j]), ktan[j], xd[j])
-    out.kinetic[bi, ki] = kin
-    out.potential[bi, ki] = vg + vs
-    out.energy[bi, ki] = tot
-    out.balance[bi, ki] = tot + out.dissipated[bi, ki] - out.work[bi, ki] - e0[bi]
+        blocks = mem.solve_from(kq, krot, kx, ktan, y)
+    code = mem.field(blocks, "code", (1,))[:, 0]
+    fig = mem.field(blocks, "fig", (5,))
+    M, en = mem.field(blocks, "M", (n, n)), mem.field(blocks, "en", (3,))
+    kin = 0.5 * np.einsum("bi,bij,bj->b", xd, M, xd)
+    vg, vs = en[:, 1].copy(), en[:, 2].copy()
+    tot = kin + vg + vs
+    for j in np.nonzero(fig[:, dk.FIG_COND] > TANGENT_COND)[0]:  # singular: the limit
+        if code[j] != dk.NOT_CLOSED:
+            kin[j], vg[j], vs[j], tot[j] = limit(mem.pose_of(kq[j], krot[j], kx[j], fig[j]),
+                                                 tan0[j], xd[j])
+    closed = code != dk.NOT_CLOSED                  # energies NaN where it did not close
+    bi, ki = bi[closed], ki[closed]
+    out.kinetic[bi, ki] = kin[closed]
+    out.potential[bi, ki] = (vg + vs)[closed]
+    out.energy[bi, ki] = tot[closed]
+    out.balance[bi, ki] = tot[closed] + out.dissipated[bi, ki] - out.work[bi, ki] - e0[bi]

@@ -809,8 +809,8 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
                  np.zeros((1, 3, 3)), buf[o_qdd:o_qdd + nv], 0.0)
         return OK
     if task == RHS:
-        return _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx,
-                              tangent, y, buf)
+        return _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols,
+                              np.zeros(1, dtype=np.int64), bq, brot, bx, tangent, y, buf)
     rank = iopt[I_RANK]
     blk = iopt[B_SIZE]
     o_M, o_h, o_Q, o_f, o_qd, o_en, o_fig = iopt[B_M], iopt[B_H], iopt[B_Q], iopt[B_FIRST], \
@@ -943,27 +943,30 @@ def _settle(PI, PF, fopts, iopt, ucols, icols, q, rot, S, res, its, flag, bq, br
 
 
 @_njit
-def stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y, buf):
-    """Task ``RHS`` of :func:`step` for the B members of a batch
+def stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, brot, bx, tangent, y,
+          buf):
+    """Task ``RHS`` of :func:`step` for A members of a batch
     (:func:`closure.batch_dynamics.simulate_batch`), with :func:`step`'s arguments from
-    ``PI`` on (``q`` ... ``flag`` left out): :func:`_stage_lanes` where B > 1 and the loop
-    Jacobian is dense and of full expected rank (one loop), else :func:`_stage_members`.
-    An entry of its own, so that the lanes compile when a batch first needs them, not with
-    :func:`step`."""
-    ni, nu, rank = icols.shape[0], ucols.shape[0], iopt[I_RANK]
+    ``PI`` on (``q`` ... ``flag`` left out) and ``members`` (A,) int64, the members' indices
+    in the batch's stacked bases and blocks (``bq`` ... ``tangent``, ``buf``: every member
+    of the batch; ``y`` (A·(2 ni + 2)): the A members' states, in order):
+    :func:`_stage_lanes` where A > 1 and the loop Jacobian is dense and of full expected
+    rank (one loop), else :func:`_stage_members`.  An entry of its own, so that the lanes
+    compile when a batch first needs them, not with :func:`step`."""
+    nu, rank = ucols.shape[0], iopt[I_RANK]
     m = 6 * PI[H_NC]
-    if y.shape[0] // (2 * ni + 2) > 1 and m > 0 and nu > 0 and \
+    if members.shape[0] > 1 and m > 0 and nu > 0 and \
             min(rank, m, nu) == min(m, nu) and _pattern(PI, PF, ucols)[P_DENSE] == 1:
-        return _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx,
-                            tangent, y, buf)
-    return _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx,
-                          tangent, y, buf)
+        return _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, brot,
+                            bx, tangent, y, buf)
+    return _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, brot,
+                          bx, tangent, y, buf)
 
 
 @_njit
-def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y,
-                   buf):
-    """The right-hand side of every member b of B
+def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, brot, bx,
+                   tangent, y, buf):
+    """The right-hand side of members ``members`` (A,) of B
     trajectories (one: :meth:`closure.Dynamics.simulate`; B:
     :func:`closure.batch_dynamics.simulate_batch`), each on its own, in one pass: the
     member's base pose moved along its tangent to the stage's inputs with the
@@ -973,13 +976,14 @@ def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, 
     factorisation where it is the pose's and dense (one loop), so the Jacobian is not
     formed and factored twice.  Member b's base pose, inputs and tangent are stacked in
     ``bq`` (B·nq), ``brot`` (B·ns, 3, 3), ``bx`` (B·ni) and ``tangent`` (B·nv, ni), its
-    state in ``y`` (B·(2 ni + 2)), its fields in block b of ``buf``, its code in the
-    block's ``code``.  Returns the number of members whose code is not :data:`OK`."""
+    fields in block b of ``buf``, its code in the block's ``code``; the state of the a-th
+    member of ``members`` in ``y`` (A·(2 ni + 2)).  Returns the number of members whose
+    code is not :data:`OK`."""
     ni, nu, rank, maxiter = icols.shape[0], ucols.shape[0], iopt[I_RANK], iopt[I_MAXITER]
     nv, nj, nl, nc = PI[H_NV], PI[H_NJ], PI[H_NL], PI[H_NC]
     mm, blk, o_qdd, o_code = 2 * ni + 2, iopt[B_SIZE], iopt[B_QDD], iopt[B_CODE]
-    B = y.shape[0] // mm
-    nq, ns = bq.shape[0] // max(B, 1), brot.shape[0] // max(B, 1)
+    B = max(bx.shape[0] // ni, 1)
+    nq, ns = bq.shape[0] // B, brot.shape[0] // B
     P, Pi = _pattern(PI, PF, ucols), _pattern(PI, PF, icols)
     m = P[P_M]
     # the Newton's scratch (its dense factors wide enough for the terms' ni right-hand
@@ -1006,9 +1010,10 @@ def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, 
         _borrowed(tangent), _borrowed(y), _borrowed(buf)
     dense = P[P_DENSE] == 1
     n_bad = 0
-    for b in range(B):
+    for a in range(members.shape[0]):
+        b = members[a]
         o = b * blk
-        xb, yb, blk_b = bx[b * ni:(b + 1) * ni], y[b * mm:(b + 1) * mm], buf[o:o + blk]
+        xb, yb, blk_b = bx[b * ni:(b + 1) * ni], y[a * mm:(a + 1) * mm], buf[o:o + blk]
         bq_b, brot_b, tan_b = bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns], \
             tangent[b * nv:(b + 1) * nv]
         _predict(PI, PF, bq_b, brot_b, xb, tan_b, yb, co[0], co[1], dv, R3,
@@ -1028,9 +1033,9 @@ def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, 
 
 
 @_njit
-def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, tangent, y,
-                 buf):
-    """:func:`_stage_members` for B > 1 members of a mechanism whose loop Jacobian is
+def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, brot, bx,
+                 tangent, y, buf):
+    """:func:`_stage_members` for A > 1 members of a mechanism whose loop Jacobian is
     dense and of full expected rank, :data:`closure.lane_kernels.LANES` members at a time
     (:mod:`closure.lane_kernels`: the same arithmetic, member by member in SIMD lanes):
     the predictors and the steps applied, the kinematic state, the Jacobian, its
@@ -1045,7 +1050,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
     ni, nu, rank, maxiter = icols.shape[0], ucols.shape[0], iopt[I_RANK], iopt[I_MAXITER]
     nv, nj, nl, nc = PI[H_NV], PI[H_NJ], PI[H_NL], PI[H_NC]
     mm, blk, o_qdd, o_inq = 2 * ni + 2, iopt[B_SIZE], iopt[B_QDD], PI[O_INQ]
-    B = y.shape[0] // mm
+    B, NA = bx.shape[0] // ni, members.shape[0]
     nq, ns = bq.shape[0] // B, brot.shape[0] // B
     m = 6 * nc
     k = min(m, nu)
@@ -1054,7 +1059,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
     scale, offset = PF[PI[F_SCALE]], PF[PI[F_OFFSET]]
     floor, xtl, noise = 1e-14 * offset, xtol * offset, 1e-15 * offset
     above = xtl / noise
-    # the block's state (current and trial), its scratch, and one member's scratch
+    # the block's state (current and trial), its scratch, one member's scratch, the terms'
     own = (_lk.lane_state(nq, ns, nj, nl, nc, nv), _lk.lane_state(nq, ns, nj, nl, nc, nv),
            (np.zeros((nj, 4, 4, L)), np.zeros((nj, 4, 4, L)), np.zeros((3, 4, 4, L)),
             np.zeros((8, L)), np.zeros((3, 4, 4)), np.zeros((1, 6)), np.zeros(3)),
@@ -1066,51 +1071,57 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
            (np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nv, 6)), np.zeros((1, 3, 3))),
            (np.zeros((m, nu)), np.zeros((m, 1)), np.zeros((nu, 1))), _lsq_work(m, nu, ni),
            _work(PI, ni, nu),
-           (np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L)),
-           (np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.bool_)),
-           # the converged members' poses and factorisations, their terms
-           _lk.lane_state(nq, ns, nj, nl, nc, nv),
-           (np.zeros((m, nu, L)), np.zeros((k, k, L)), np.zeros(L), np.zeros((ni, L)),
-            np.zeros(L), np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.bool_)),
+           (np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L), np.zeros((ni, L))),
+           (np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.bool_),
+            np.zeros(L, dtype=np.bool_)),
            _lane_work(PI, ni, nu),
            (np.zeros((nv, ni, L)), np.zeros((nv, L)), np.zeros((nv, L)),
             np.zeros((ni, ni, L)), np.zeros((ni, L)), np.zeros((ni, L)), np.zeros((3, L)),
             np.zeros(L)))
     cur, tri = _borrowed_lanes(own[0]), _borrowed_lanes(own[1])
     A, fa, T, tmp, T1, r1, w3 = own[2]
+    A, fa, T, tmp, T1 = _borrowed(A), _borrowed(fa), _borrowed(T), _borrowed(tmp), _borrowed(T1)
+    r1, w3 = _borrowed(r1), _borrowed(w3)
     J, G, Lc, Linv, Ginv, fl, il, vec = own[3]
+    J, G, Lc, Linv, Ginv = _borrowed(J), _borrowed(G), _borrowed(Lc), _borrowed(Linv), \
+        _borrowed(Ginv)
+    fl, il, vec = _borrowed(fl), _borrowed(il), _borrowed(vec)
     X, T1l, T2l, acc, rs, stp = own[4]
+    X, T1l, T2l, acc = _borrowed(X), _borrowed(T1l), _borrowed(T2l), _borrowed(acc)
+    rs, stp = _borrowed(rs), _borrowed(stp)
     gq, grot, gS, R3 = own[5]
+    gq, grot, gS, R3 = _borrowed(gq), _borrowed(grot), _borrowed(gS), _borrowed(R3)
     Jd, Rd, Xd = own[6]
+    Jd, Rd, Xd = _borrowed(Jd), _borrowed(Rd), _borrowed(Xd)
     Wd, wk = _borrowed_lsq_work(own[7]), _borrowed_work(own[8])
-    n_res, prev, inv0, wait = own[9]
-    n_its, done = own[10]
-    fin = _borrowed_lanes(own[11])
-    fJ, fGinv, finv0, fxd, fres, fits, ready = own[12]
-    fJ, fGinv, finv0, fxd = _borrowed(fJ), _borrowed(fGinv), _borrowed(finv0), _borrowed(fxd)
-    fres, fits, ready = _borrowed(fres), _borrowed(fits), _borrowed(ready)
-    lsc = own[13]
-    t_first, t_qd, t_qdd, t_M, t_h, t_Q, t_en, t_bound = own[14]
+    n_res, prev, inv0, wait, xd = own[9]
+    n_res, prev, inv0, wait = _borrowed(n_res), _borrowed(prev), _borrowed(inv0), \
+        _borrowed(wait)
+    xd = _borrowed(xd)
+    n_its, done, ready = own[10]
+    n_its, done, ready = _borrowed(n_its), _borrowed(done), _borrowed(ready)
+    sc = own[11]
+    lsc = (_borrowed(sc[0]), _borrowed(sc[1]), _borrowed(sc[2]), _borrowed(sc[3]),
+           _borrowed(sc[4]), _borrowed(sc[5]), _borrowed(sc[6]), _borrowed(sc[7]),
+           _borrowed(sc[8]), _borrowed(sc[9]), _borrowed(sc[10]))
+    t_first, t_qd, t_qdd, t_M, t_h, t_Q, t_en, t_bound = own[12]
+    t_first, t_qd, t_qdd, t_M = _borrowed(t_first), _borrowed(t_qd), _borrowed(t_qdd), \
+        _borrowed(t_M)
+    t_h, t_Q, t_en, t_bound = _borrowed(t_h), _borrowed(t_Q), _borrowed(t_en), \
+        _borrowed(t_bound)
     PI, PF, PM, DI, DF = _borrowed(PI), _borrowed(PF), _borrowed(PM), _borrowed(DI), \
         _borrowed(DF)
     fopts, iopt, ucols, icols = _borrowed(fopts), _borrowed(iopt), _borrowed(ucols), \
         _borrowed(icols)
-    bq, brot, bx, tangent, y, buf = _borrowed(bq), _borrowed(brot), _borrowed(bx), \
-        _borrowed(tangent), _borrowed(y), _borrowed(buf)
-    gq, grot, gS, R3 = _borrowed(gq), _borrowed(grot), _borrowed(gS), _borrowed(R3)
-    Jd, Rd, Xd, rs, stp = _borrowed(Jd), _borrowed(Rd), _borrowed(Xd), _borrowed(rs), \
-        _borrowed(stp)
-    X, fl, il = _borrowed(X), _borrowed(fl), _borrowed(il)
-    n_res, prev, inv0, wait = _borrowed(n_res), _borrowed(prev), _borrowed(inv0), \
-        _borrowed(wait)
-    n_its, done = _borrowed(n_its), _borrowed(done)
+    members, bq, brot, bx, tangent, y, buf = _borrowed(members), _borrowed(bq), \
+        _borrowed(brot), _borrowed(bx), _borrowed(tangent), _borrowed(y), _borrowed(buf)
     n_bad = 0
-    for b0 in range(0, B, L):
-        LN = min(L, B - b0)
+    for a0 in range(0, NA, L):
+        LN = min(L, NA - a0)
         for l in range(LN):                     # the predictors (_predict), into the block
-            b = b0 + l
+            a, b = a0 + l, members[a0 + l]
             o = b * blk
-            xb, yb = bx[b * ni:(b + 1) * ni], y[b * mm:(b + 1) * mm]
+            xb, yb = bx[b * ni:(b + 1) * ni], y[a * mm:(a + 1) * mm]
             _tangent_step(PI, PF, xb, tangent[b * nv:(b + 1) * nv], yb,
                           buf[o + o_qdd:o + o_qdd + nv], _curvature(buf[o:o + blk], iopt, xb, yb),
                           stp[:, l])
@@ -1118,7 +1129,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
         _lk.apply(PI, PF, tri[0], tri[1], stp, cur[0], cur[1], R3, LN)
         for l in range(LN):
             for i in range(ni):
-                cur[0][PI[o_inq + i], l] = y[(b0 + l) * mm + i]
+                cur[0][PI[o_inq + i], l] = y[(a0 + l) * mm + i]
         _lk.evaluate(PI, PF, PM, cur[0], cur[1], cur[2], cur[3], cur[4], A, fa, T, tmp, T1,
                      r1, w3, LN)
         for l in range(LN):
@@ -1127,6 +1138,10 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
             ready[l] = False
         n_ready = 0
         active = LN
+        # A member that has converged keeps a zero step: the trial poses that the others'
+        # line search makes are its own pose, bit for bit (q + 0, exp(0) R = R), and so
+        # are its state, Jacobian and factor formed again there; its Newton's outputs stay
+        # in the block (``cur``, ``J``, ``Ginv``, ``inv0``, ``n_res``, ``n_its``).
         for _ in range(maxiter):
             if active == 0:
                 break
@@ -1143,14 +1158,14 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
                 else:                           # the truncated SVD, one member
                     _from_lane2(J, Jd, l)
                     fast, _, inv0[l] = _lsq(Jd, rank, Wd)
-                    for a in range(m):
-                        Rd[a, 0] = rs[a, l]
+                    for r in range(m):
+                        Rd[r, 0] = rs[r, l]
                     _dn_solve(Jd, fast, Wd[3], Wd[4], Wd[5], Wd[6], Rd, Xd, 0, Wd[8], Wd[9])
-                    for a in range(nu):
-                        X[a, l] = Xd[a, 0]
+                    for c in range(nu):
+                        X[c, l] = Xd[c, 0]
                 big = 0.0
-                for a in range(nu):
-                    v = abs(X[a, l])
+                for c in range(nu):
+                    v = abs(X[c, l])
                     if v > big or v != v:
                         big = v
                 stalled = n_its[l] > 1 and n_res[l] > 0.5 * prev[l]
@@ -1161,19 +1176,18 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
                 tol_step = max(xtl, noise * ism)
                 conv = big <= tol_step and (n_res[l] <= floor or stalled)
                 prev[l] = n_res[l]
+                for c in range(nv):
+                    stp[c, l] = 0.0
                 if conv:
                     done[l] = True
                     active -= 1
                     if fast:                    # its terms in lanes, once the Newton is done
-                        _lane_copy(cur, fin, J, fJ, Ginv, fGinv, l)
-                        finv0[l], fres[l], fits[l], ready[l] = inv0[l], n_res[l], n_its[l], True
+                        ready[l] = True
                         n_ready += 1
                     continue
                 fac = min(1.0, max_step / max(big, 1e-300))
-                for c in range(nv):
-                    stp[c, l] = 0.0
-                for a in range(nu):
-                    stp[ucols[a], l] = -X[a, l] * fac
+                for c in range(nu):
+                    stp[ucols[c], l] = -X[c, l] * fac
                 wait[l] = 1.0                   # in the line search
             if active == 0:
                 break
@@ -1202,35 +1216,33 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, bq, brot, bx, ta
             cur, tri = tri, cur                 # every member still running took its trial
         if n_ready:                             # the converged members' terms
             for l in range(LN):
-                b = b0 + l
                 for i in range(ni):
-                    fxd[i, l] = y[b * mm + ni + i]
-            _terms_lanes(PI, PF, DI, DF, fin[0], fin[2], fin[4], fxd, ucols, icols, fJ, fGinv,
-                         finv0, lsc, t_first, t_qd, t_qdd, t_M, t_h, t_Q, t_en, t_bound, LN)
+                    xd[i, l] = y[(a0 + l) * mm + ni + i]
+            _terms_lanes(PI, PF, DI, DF, cur[0], cur[2], cur[4], xd, ucols, icols, J, Ginv,
+                         inv0, lsc, t_first, t_qd, t_qdd, t_M, t_h, t_Q, t_en, t_bound, LN)
             for l in range(LN):
                 if not ready[l]:
                     continue
-                b = b0 + l
+                a, b = a0 + l, members[a0 + l]
                 o = b * blk
-                _lane_terms_out(iopt, t_first, t_qd, t_qdd, t_M, t_h, t_Q, t_en,
-                                buf[o:o + blk], l)
-                _from_lane(fin[0], fin[1], gq, grot, l)
-                _from_lane2(fin[4], gS, l)
-                code = _settle(PI, PF, fopts, iopt, ucols, icols, gq, grot, gS, fres[l], fits[l],
-                               np.int64(1), bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns],
-                               bx[b * ni:(b + 1) * ni], tangent[b * nv:(b + 1) * nv],
-                               y[b * mm:(b + 1) * mm], buf[o:o + blk], wk, True, t_bound[l])
+                _lane_terms_out(iopt, t_first, t_qd, t_qdd, t_M, t_h, t_Q, t_en, buf[o:o + blk],
+                                l)
+                _from_lane(cur[0], cur[1], gq, grot, l)
+                _from_lane2(cur[4], gS, l)
+                code = _settle(PI, PF, fopts, iopt, ucols, icols, gq, grot, gS, n_res[l],
+                               n_its[l], np.int64(1), bq[b * nq:(b + 1) * nq],
+                               brot[b * ns:(b + 1) * ns], bx[b * ni:(b + 1) * ni],
+                               tangent[b * nv:(b + 1) * nv], y[a * mm:(a + 1) * mm],
+                               buf[o:o + blk], wk, True, t_bound[l])
                 buf[o + iopt[B_CODE]] = code
                 if code != OK:
                     n_bad += 1
         for l in range(LN):                     # the others: the one-member stage, again
-            if ready[l]:
-                continue
-            b = b0 + l
-            n_bad += _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols,
-                                    bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns],
-                                    bx[b * ni:(b + 1) * ni], tangent[b * nv:(b + 1) * nv],
-                                    y[b * mm:(b + 1) * mm], buf[b * blk:(b + 1) * blk])
+            if not ready[l]:
+                a = a0 + l
+                n_bad += _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols,
+                                        members[a:a + 1], bq, brot, bx, tangent,
+                                        y[a * mm:(a + 1) * mm], buf)
     _keep_alive(own)
     return n_bad
 
@@ -1240,31 +1252,6 @@ def _borrowed_lanes(st):
     """:func:`closure.solve_kernels._borrowed` of every array of a block state."""
     return (_borrowed(st[0]), _borrowed(st[1]), _borrowed(st[2]), _borrowed(st[3]),
             _borrowed(st[4]))
-
-
-@numba.njit(inline="always", **_JIT)
-def _lane_copy(st, dst, J, dJ, Ginv, dGinv, l):
-    """Lane ``l`` of a block state's ``q``, ``rot``, ``link``, ``S`` and of ``J``, ``Ginv``
-    into lane ``l`` of ``dst``, ``dJ``, ``dGinv``."""
-    for i in range(st[0].shape[0]):
-        dst[0][i, l] = st[0][i, l]
-    for i in range(st[1].shape[0]):
-        for a in range(3):
-            for c in range(3):
-                dst[1][i, a, c, l] = st[1][i, a, c, l]
-    for i in range(st[2].shape[0]):
-        for a in range(4):
-            for c in range(4):
-                dst[2][i, a, c, l] = st[2][i, a, c, l]
-    for i in range(st[4].shape[0]):
-        for a in range(6):
-            dst[4][i, a, l] = st[4][i, a, l]
-    for a in range(J.shape[0]):
-        for c in range(J.shape[1]):
-            dJ[a, c, l] = J[a, c, l]
-    for a in range(Ginv.shape[0]):
-        for c in range(Ginv.shape[1]):
-            dGinv[a, c, l] = Ginv[a, c, l]
 
 
 @numba.njit(inline="always", **_JIT)

@@ -44,11 +44,12 @@ def _inputs(name, B, rng):
     return X
 
 
-def _stage(mem, y, per_member):
-    """Task RHS for every member: one call of the batch's stage (blocks of lanes) or one
-    call of simulate's step per member (the one-member stage).  Returns the members'
-    arrays after the call and the bad count."""
+def _stage(mem, y, per_member, members=None):
+    """Task RHS for ``members`` (default all; ``y`` their states): one call of the batch's
+    stage (blocks of lanes) or one call of simulate's step per member (the one-member
+    stage).  Returns the batch's arrays after the call and the bad count."""
     B, n = mem.B, mem.n
+    members = np.arange(B) if members is None else members
     bq, brot, bx, tan = mem.bq.copy(), mem.brot.copy(), mem.bx.copy(), mem.tangent.copy()
     buf, y = mem.buf.copy(), y.copy()
     if per_member:                                       # simulate's: one member a call
@@ -56,11 +57,12 @@ def _stage(mem, y, per_member):
         head = (dk.RHS, *mem._stage_head, np.zeros((0, nq)), np.zeros((0, 0, 3, 3)),
                 np.zeros((0, 0, 4, 4)), np.zeros((0, 0, 6)), np.zeros(0), np.zeros(0),
                 np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
-        bad = sum(dk.step(*head, bq[b], brot[b], bx[b], tan[b], y[b], blocks[b])
-                  for b in range(B))
+        bad = sum(dk.step(*head, bq[b], brot[b], bx[b], tan[b], y[a], blocks[b])
+                  for a, b in enumerate(members))
     else:
-        bad = dk.stage(*mem._stage_head, bq.reshape(-1), brot.reshape(-1, 3, 3),
-                       bx.reshape(-1), tan.reshape(-1, n), y.reshape(-1), buf)
+        bad = dk.stage(*mem._stage_head, members.astype(np.int64), bq.reshape(-1),
+                       brot.reshape(-1, 3, 3), bx.reshape(-1), tan.reshape(-1, n),
+                       y.reshape(-1), buf)
     return (bq, brot, bx, tan, buf, y), bad
 
 
@@ -97,6 +99,18 @@ def test_the_stage_in_lanes_is_the_one_member_stage_bit_for_bit(name):
         its += blocks[:, mem.layout["fig"] + dk.FIG_ITS].tolist()
         conds += blocks[:, mem.layout["fig"] + dk.FIG_COND].tolist()
         y0 = np.ascontiguousarray(y0 + np.c_[0.01 * XD, np.zeros((B, n + 2))])
+    # a subset of the members (every third: one short block of lanes, members apart):
+    # theirs moved as above, the others' untouched
+    sub = np.arange(0, B, 3)
+    lanes, bad_l = _stage(mem, y0[sub], False, sub)
+    ones, bad_1 = _stage(mem, y0[sub], True, sub)
+    assert bad_l == bad_1
+    for a, b in zip(lanes, ones):
+        assert np.array_equal(a, b, equal_nan=True)
+    rest = np.setdiff1d(np.arange(B), sub)
+    assert np.array_equal(lanes[4].reshape(B, -1)[rest], mem.buf.reshape(B, -1)[rest],
+                          equal_nan=True)
+    assert not np.array_equal(lanes[4].reshape(B, -1)[sub], mem.buf.reshape(B, -1)[sub])
     # the calls took the lanes' paths: several iteration counts, failures among them
     if not name.startswith("parallelogram"):
         assert len(set(its)) >= 3

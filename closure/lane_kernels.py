@@ -9,8 +9,9 @@ that structure, so here every per-member array gets a trailing lane axis (``q`` 
 one-member kernel becomes a loop over the lanes, innermost, of the same arithmetic: the
 structure is read once per block of members, and the compiler turns the lane loops into
 SIMD instructions.  Results are those of the one-member kernels bit for bit (the same
-operations in the same order, no fast-math; ``sin``, ``cos`` and ``atan2`` from the same
-libm, in their own lane loops), which the tests check.
+operations in the same order, no fast-math; ``sin`` and ``cos`` from the kernels' own
+series, :func:`closure.solve_kernels._sincos`, vectorised like the rest, ``atan2`` from
+the same libm in a lane loop of its own), which the tests check.
 
 Where a member leaves the common path its lane is flagged and the caller takes the
 one-member kernel for it: a loop transform turning a quarter turn or more (the rotation's
@@ -40,7 +41,8 @@ from .solve_kernels import (_JIT, F_CENTRE, F_COLSC, F_LOOP, F_PITCH, F_ROWMAP, 
                             F_UMID, H_NC, H_NJ, H_NL, H_NV, M_CFBI, M_FA, M_TL, M_TR, O_CJ,
                             O_CLB, O_COLJ, O_INV, O_JLA, O_KIND, O_KV, O_KW, O_QOFF, O_SCALQ,
                             O_SCALV, O_SCOLS, O_SIDX, O_SORD, O_TFWD, O_TJ, O_TLI, O_TPL,
-                            O_UQ0, _exp_so3, _loop_log, _rigid, _rigid_inv, _rigid_mul)
+                            O_UQ0, SINCOS_REDUCED, _exp_so3, _loop_log, _rigid, _rigid_inv,
+                            _rigid_mul, _sincos_reduced)
 
 __all__ = ["LANES", "evaluate", "apply", "jacobian", "factor", "solve", "lane_state"]
 
@@ -80,6 +82,15 @@ def _rigid_put_l(t, out, io, l):
         0.0, 0.0, 0.0, 1.0
 
 
+@numba.njit(inline="always", **_JIT)
+def _sincos_beyond(x, s, c, LN):
+    """The lanes of ``x`` (L,) at or beyond ``SINCOS_REDUCED`` (or not finite) get libm's
+    ``s``, ``c`` (:func:`closure.solve_kernels._sincos`)."""
+    for l in range(LN):
+        if not abs(x[l]) < SINCOS_REDUCED:
+            s[l], c[l] = math.sin(x[l]), math.cos(x[l])
+
+
 @numba.njit(**_JIT)
 def lane_state(nq, ns, nj, nl, nc, nv):
     """A block's state and scratch for :func:`evaluate`: ``(q (nq, L), rot (ns, 3, 3, L),
@@ -108,8 +119,8 @@ def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, tmp, T1, r1, w3, LN):
         qj = PI[o_qoff + j]
         if k == 0 or k == 2 or k == 3:                  # R, C, H: Rz(θ)
             for l in range(LN):
-                x = q[qj, l]
-                tmp[0, l], tmp[1, l] = math.cos(x), math.sin(x)
+                tmp[1, l], tmp[0, l] = _sincos_reduced(q[qj, l])
+            _sincos_beyond(q[qj], tmp[1], tmp[0], LN)
             for l in range(LN):
                 c, s = tmp[0, l], tmp[1, l]
                 A[j, 0, 0, l], A[j, 0, 1, l], A[j, 1, 0, l], A[j, 1, 1, l] = c, -s, s, c
@@ -131,9 +142,10 @@ def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, tmp, T1, r1, w3, LN):
                         A[j, a, b, l] = rot[si, a, b, l]
         else:                                           # U: Rz(φ) Ry(π/2) Rz(θ)
             for l in range(LN):
-                x, x2 = q[qj, l], q[qj + 1, l]
-                tmp[0, l], tmp[1, l] = math.cos(x), math.sin(x)
-                tmp[2, l], tmp[3, l] = math.cos(x2), math.sin(x2)
+                tmp[1, l], tmp[0, l] = _sincos_reduced(q[qj, l])
+                tmp[3, l], tmp[2, l] = _sincos_reduced(q[qj + 1, l])
+            _sincos_beyond(q[qj], tmp[1], tmp[0], LN)
+            _sincos_beyond(q[qj + 1], tmp[3], tmp[2], LN)
             for b in range(3):
                 u0, u1, u2 = PF[o_um + b], PF[o_um + 3 + b], PF[o_um + 6 + b]
                 for l in range(LN):
@@ -202,10 +214,9 @@ def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, tmp, T1, r1, w3, LN):
             tmp[3, l] = 0.5 * (g00 + g11 + g22 - 1.0)
             tmp[4, l] = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
         for l in range(LN):
-            th = math.atan2(tmp[4, l], tmp[3, l])
-            tmp[4, l] = th
-            tmp[5, l] = math.sin(th)
-            tmp[6, l] = math.cos(th)
+            tmp[4, l] = math.atan2(tmp[4, l], tmp[3, l])
+        for l in range(LN):                             # θ in [0, π/2]: no libm needed
+            tmp[5, l], tmp[6, l] = _sincos_reduced(tmp[4, l])
         for l in range(LN):
             th, s_ = tmp[4, l], tmp[5, l]
             th2 = th * th
@@ -242,8 +253,8 @@ def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, tmp, T1, r1, w3, LN):
         sw, sv, kv = PF[o_sw + ci], PF[o_sv + ci], PI[o_kv + ci]
         if u >= 0:
             for l in range(LN):
-                x = q[u, l]
-                tmp[0, l], tmp[1, l] = math.cos(x), math.sin(x)
+                tmp[1, l], tmp[0, l] = _sincos_reduced(q[u, l])
+            _sincos_beyond(q[u], tmp[1], tmp[0], LN)
             for l in range(LN):
                 c, s = tmp[0, l], tmp[1, l]
                 e0 = c * u02 - s * u12

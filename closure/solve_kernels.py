@@ -182,6 +182,53 @@ def _rigid_inv(t):
             r02, r12, r22, -(r02 * p0 + r12 * p1 + r22 * p2))
 
 
+# sin and cos of the joint angles: Cody–Waite reduction by π/2 (π/2 in three parts of
+# 33, 33 and 53 bits, so k·P1 and k·P2 are exact for |k| < 2^20) and the Taylor series on
+# |r| ≤ π/4 to r¹⁷ and r¹⁸ (the next terms below 1e-19); within 2 ulp of the exact value
+# for |x| < 1e5 (libm's are within 0.5 ulp), libm's beyond.  Plain arithmetic, no call, so
+# the lane kernels' loops over members (closure.lane_kernels) run it in SIMD lanes; both
+# layouts call the same function and agree bit for bit.
+_PIO2_1 = float.fromhex("0x1.921fb54400000p+0")
+_PIO2_2 = float.fromhex("0x1.0b4611a600000p-34")
+_PIO2_3 = float.fromhex("0x1.3198a2e037073p-69")
+_INV_PIO2 = float.fromhex("0x1.45f306dc9c883p-1")
+_S3, _S5, _S7, _S9, _S11, _S13, _S15, _S17 = (
+    (-1.0) ** k / math.factorial(2 * k + 1) for k in range(1, 9))
+_C4, _C6, _C8, _C10, _C12, _C14, _C16, _C18 = (
+    (-1.0) ** k / math.factorial(2 * k) for k in range(2, 10))
+#: where the reduction above stops being exact enough: libm's sin and cos beyond
+SINCOS_REDUCED = 1e5
+
+
+@numba.njit(inline="always", **_JIT)
+def _sincos_reduced(x):
+    """``(sin x, cos x)`` by the reduction and series above, for |x| < SINCOS_REDUCED."""
+    k = math.floor(x * _INV_PIO2 + 0.5)
+    r = ((x - k * _PIO2_1) - k * _PIO2_2) - k * _PIO2_3
+    z = r * r
+    s = r + r * z * (_S3 + z * (_S5 + z * (_S7 + z * (_S9 + z * (_S11 + z * (
+        _S13 + z * (_S15 + z * _S17)))))))
+    if abs(r) < 7.450580596923828e-09:          # 2^-27: sin r = r (and −0 stays −0)
+        s = r
+    hz = 0.5 * z
+    w = 1.0 - hz                                # 1 − r²/2 and its rounding error
+    c = w + (((1.0 - w) - hz) + z * z * (_C4 + z * (_C6 + z * (_C8 + z * (_C10 + z * (
+        _C12 + z * (_C14 + z * (_C16 + z * _C18))))))))
+    q = np.int64(k)                             # the quadrant
+    a = c if q & 1 else s
+    b = s if q & 1 else c
+    return (-a if q & 2 else a), (-b if (q + 1) & 2 else b)
+
+
+@numba.njit(inline="always", **_JIT)
+def _sincos(x):
+    """``(sin x, cos x)`` (notes above): :func:`_sincos_reduced`, libm's for |x| ≥
+    SINCOS_REDUCED and non-finite x."""
+    if not abs(x) < SINCOS_REDUCED:
+        return math.sin(x), math.cos(x)
+    return _sincos_reduced(x)
+
+
 @numba.njit(**_JIT)
 def _exp_so3(w0, w1, w2, out, io):
     """``out[io]``: the rotation matrix of the rotation vector ``w`` (series near 0, as
@@ -236,23 +283,23 @@ def _log_so3(R, ir, out):
 @numba.njit(inline="always", **_JIT)
 def _rot_log(R, ir, out):
     """Rotation vector ``out`` (3,) of the rotation ``R[ir, :3, :3]`` below a quarter turn
-    (as :func:`closure.state._rot_log`); returns ``(θ, θ², sin θ)``, or θ = −1 (``out``
-    untouched) when it turns a quarter turn or more."""
+    (as :func:`closure.state._rot_log`); returns ``(θ, θ², sin θ, cos θ)``, or θ = −1
+    (``out`` untouched) when it turns a quarter turn or more."""
     v0 = 0.5 * (R[ir, 2, 1] - R[ir, 1, 2])
     v1 = 0.5 * (R[ir, 0, 2] - R[ir, 2, 0])
     v2 = 0.5 * (R[ir, 1, 0] - R[ir, 0, 1])
     cth = 0.5 * (R[ir, 0, 0] + R[ir, 1, 1] + R[ir, 2, 2] - 1.0)
     if not cth > 0.0:
-        return -1.0, 0.0, 0.0
+        return -1.0, 0.0, 0.0, 0.0
     th = math.atan2(math.sqrt(v0 * v0 + v1 * v1 + v2 * v2), cth)
     th2 = th * th
-    s_ = math.sin(th)
+    s_, c_ = _sincos(th)
     if th2 < 1e-10:
         sc = 1 + th2 / 6 + 7 * th2 * th2 / 360
     else:
         sc = th / s_
     out[0], out[1], out[2] = v0 * sc, v1 * sc, v2 * sc
-    return th, th2, s_
+    return th, th2, s_, c_
 
 
 @numba.njit(inline="always", **_JIT)
@@ -260,7 +307,7 @@ def _loop_log(G, ig, r, ir, w):
     """``r[ir]``: the twist ``(v, ω)``, ``log`` of the loop transform ``G[ig]`` (as
     :func:`closure.state._loop_log`, with :func:`closure.frames._log_se3` past a quarter
     turn); ``w`` (3,) scratch."""
-    th, th2, s_ = _rot_log(G, ig, w)
+    th, th2, s_, c_ = _rot_log(G, ig, w)
     if th < 0.0:
         _log_so3(G, ig, w)
         th2 = w[0] * w[0] + w[1] * w[1] + w[2] * w[2]
@@ -272,7 +319,7 @@ def _loop_log(G, ig, r, ir, w):
     elif th2 < 1e-8:
         e = 1 / 12 + th2 / 720
     else:
-        e = (1 - th * s_ / (2 * (1 - math.cos(th)))) / th2
+        e = (1 - th * s_ / (2 * (1 - c_))) / th2
     p0, p1, p2 = G[ig, 0, 3], G[ig, 1, 3], G[ig, 2, 3]
     w0, w1, w2 = w[0], w[1], w[2]
     # V⁻¹ p = p − ½ ω × p + e ω × (ω × p)
@@ -372,7 +419,7 @@ def _evaluate(PI, PF, PM, q, rot, A, link, fa, r, S, T, w3):
         k = PI[o_kind + j]
         qj = PI[o_qoff + j]
         if k == 0 or k == 2 or k == 3:                 # R, C, H: Rz(θ)
-            c, s = math.cos(q[qj]), math.sin(q[qj])
+            s, c = _sincos(q[qj])
             A[j, 0, 0], A[j, 0, 1], A[j, 1, 0], A[j, 1, 1] = c, -s, s, c
             if k == 2:
                 A[j, 2, 3] = q[qj + 1]
@@ -386,8 +433,8 @@ def _evaluate(PI, PF, PM, q, rot, A, link, fa, r, S, T, w3):
                 for b in range(3):
                     A[j, a, b] = rot[si, a, b]
         else:                                           # U: Rz(φ) Ry(π/2) Rz(θ)
-            c, s = math.cos(q[qj]), math.sin(q[qj])
-            c2, s2 = math.cos(q[qj + 1]), math.sin(q[qj + 1])
+            s, c = _sincos(q[qj])
+            s2, c2 = _sincos(q[qj + 1])
             for b in range(3):                          # Rz(φ) umid into T[0, :3, :3]
                 T[0, 0, b] = c * PF[o_um + b] - s * PF[o_um + 3 + b]
                 T[0, 1, b] = s * PF[o_um + b] + c * PF[o_um + 3 + b]
@@ -446,7 +493,7 @@ def _twists(PI, PF, q, fa, S):
         j = PI[o_colj + ci]
         u = PI[o_uq0 + ci]
         if u >= 0:
-            c, s = math.cos(q[u]), math.sin(q[u])
+            s, c = _sincos(q[u])
             e0 = c * u02 - s * u12
             e1 = s * u02 + c * u12
             e2 = u22
@@ -558,7 +605,7 @@ def _distance(PI, PF, qa, rota, qb, rotb, out, R3, w3):
             for b in range(3):
                 R3[0, a, b] = rota[si, a, 0] * rotb[si, b, 0] + rota[si, a, 1] * rotb[si, b, 1] + \
                     rota[si, a, 2] * rotb[si, b, 2]
-        th, _, _ = _rot_log(R3, i0, w3)
+        th, _, _, _ = _rot_log(R3, i0, w3)
         if th < 0.0:
             _log_so3(R3, i0, w3)
         for a in range(3):

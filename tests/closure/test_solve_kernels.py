@@ -259,3 +259,72 @@ def test_import_closure_does_not_import_numba():
             "rssr(0.2, 1)[0].solve(0.1)\n"
             "assert 'numba' in sys.modules\n")
     subprocess.run([sys.executable, "-c", code], check=True)
+
+
+# -------------------------------------------------------------------- the kernels' sin, cos
+
+_PI = ("3.14159265358979323846264338327950288419716939937510582097494459230781640628620"
+       "89986280348253421170679821480865132823066470938446")
+
+
+def _exact_sin_cos(x: float):
+    """sin x and cos x to 60 digits (decimal arithmetic: reduction by 2π, Taylor series)."""
+    from decimal import Decimal, localcontext
+    with localcontext() as ctx:
+        ctx.prec = 60
+        pi = Decimal(_PI)
+        d = Decimal(x)                                  # exact
+        r = d - (d / (2 * pi)).to_integral_value() * 2 * pi
+        s = c = Decimal(0)
+        t = Decimal(1)
+        for n in range(90):
+            if n % 2:
+                s += t if n % 4 == 1 else -t
+            else:
+                c += t if n % 4 == 0 else -t
+            t = t * r / (n + 1)
+        return s, c
+
+
+def _ulps(got: np.ndarray, exact) -> float:
+    from decimal import Decimal
+    return max(float(abs(Decimal(float(g)) - e) / Decimal(float(np.spacing(abs(float(e))))))
+               for g, e in zip(got, exact))
+
+
+@pytest.fixture(scope="module")
+def sincos():
+    import numba
+
+    @numba.njit
+    def both(x):
+        s, c = np.empty_like(x), np.empty_like(x)
+        for i in range(x.size):
+            s[i], c[i] = K._sincos(x[i])
+        return s, c
+    return both
+
+
+@pytest.mark.parametrize("lo, hi", [(0.0, 0.8), (0.8, 7.0), (7.0, 1e3), (1e3, 99_999.0)])
+def test_kernel_sin_cos_within_two_ulp_of_the_exact_values(sincos, lo, hi):
+    rng = np.random.default_rng(int(hi))
+    x = rng.uniform(lo, hi, 600) * rng.choice([-1.0, 1.0], 600)
+    if lo == 0.8:                                        # next to multiples of π/2 and π/4
+        k = rng.integers(1, 4, 100)
+        x[:100] = np.nextafter(k * np.pi / 2, k * np.pi / 2 + rng.choice([-1, 1], 100))
+        x[100:200] = k * np.pi / 4 * (1 + rng.uniform(-1e-12, 1e-12, 100))
+    s, c = sincos(x)
+    exact = [_exact_sin_cos(v) for v in x]
+    assert _ulps(s, [e[0] for e in exact]) <= 2.0
+    assert _ulps(c, [e[1] for e in exact]) <= 2.0
+
+
+def test_kernel_sin_cos_beyond_the_reduction_and_at_special_values(sincos):
+    import math
+    x = np.array([1e5, -1e5, 3.7e7, -1e300, 0.0, -0.0, 5e-324])
+    s, c = sincos(x)
+    assert s.tolist() == [math.sin(v) for v in x]        # libm's from 1e5 on
+    assert c.tolist() == [math.cos(v) for v in x]
+    assert np.signbit(s[5]) and s[6] == 5e-324 and c[4] == c[5] == 1.0
+    s, c = sincos(np.array([np.inf, -np.inf, np.nan]))
+    assert np.isnan(s).all() and np.isnan(c).all()

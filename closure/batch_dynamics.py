@@ -11,7 +11,8 @@ SIMD lanes, :mod:`closure.lane_kernels`: the same arithmetic, so a member's righ
 side is the one ``simulate`` computes at the same state, bit for bit); for each member:
 
 - its last solved pose moved along its own tangent (first analogs) to the stage's inputs,
-  plus a second-order term along its last rates;
+  plus a second-order term along its last rates and, for one input, a third-order term
+  from the second analogs of its last two poses;
 - the solver's Newton (:func:`closure.solve_kernels._newton`) corrects it, so that each
   member is tracked on its own branch;
 - the pose judged (closed, its condition number), the terms M, h, Q, the first analogs
@@ -120,7 +121,7 @@ class _Members:
     (B, n): the last pose solved for it), its tangent (first analogs, ``tangent``
     (B, nv, n)) and its block of the kernels' fields (``blocks`` (B, size) over ``buf``:
     its last right-hand side, whose rates and velocity-product accelerations give the
-    predictor's second-order term), updated in place by the kernels.
+    predictor's higher-order terms), updated in place by the kernels.
     """
 
     def __init__(self, dynamics, start: Pose, ok: np.ndarray, xd0: np.ndarray,

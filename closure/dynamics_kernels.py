@@ -19,8 +19,8 @@ the dampers' power and the gravity and spring energies.
 
 Forward dynamics' right-hand side (:meth:`closure.Dynamics.simulate`,
 :class:`closure.integrate.PoseTracker`) is one compiled call, ``step`` task ``RHS``
-(:func:`_stage_members`): the last solved pose moved along its tangent to the new inputs (plus a
-second-order term along the last rates), corrected by the position solver's Newton
+(:func:`_stage_members`): the last solved pose moved along its tangent to the new inputs (plus
+second- and third-order terms, :func:`_curvature`), corrected by the position solver's Newton
 (:func:`closure.solve_kernels._newton`: the iterations, tolerances and convergence test
 of :func:`closure.solver.newton`, one implementation for both), the corrected pose judged
 (closed, its condition against the limit above which the dynamics are taken as their
@@ -647,7 +647,7 @@ PREDICT, TRACK, RHS, TERMS = 0, 1, 2, 3
 # iopt: the solver's maxiter, the expected rank, Newton's task code, 0 (the solver's
 # ``have``), then the offsets of the fields of a member's block of ``buf`` and its size
 (I_MAXITER, I_RANK, I_NEWTON, I_HAVE, B_M, B_H, B_Q, B_FIRST, B_QD, B_EN, B_FIG, B_OUT,
- B_MINV, B_COORD, B_CODE, B_QDD, B_SIZE, I_LEN) = range(18)
+ B_MINV, B_COORD, B_CODE, B_QDD, B_PX, B_PA, B_SIZE, I_LEN) = range(20)
 
 #: the figures of a solved pose in its block: residual, iterations, condition number (NaN:
 #: at most the limit of ``fopts[8]``, not computed), converged, closed
@@ -660,10 +660,11 @@ def layout(ni: int, nv: int, nq: int) -> dict:
     ``h``, ``Q`` (ni), ``first`` (nv, ni), ``qd`` (nv), ``en`` (3: dampers' power, gravity
     and spring energy), ``fig`` (5), ``out`` (2 ni + 2), ``Minv`` (ni, ni), ``q`` (nq),
     ``code`` (1: the pose's code of task ``RHS``), ``qdd`` (nv: the velocity-product
-    accelerations)."""
+    accelerations), ``px`` (1), ``pa`` (nv) (the base before: its input and second analogs,
+    :func:`_base_curvature`)."""
     sizes = (("M", ni * ni), ("h", ni), ("Q", ni), ("first", nv * ni), ("qd", nv), ("en", 3),
              ("fig", 5), ("out", 2 * ni + 2), ("Minv", ni * ni), ("q", nq), ("code", 1),
-             ("qdd", nv))
+             ("qdd", nv), ("px", 1), ("pa", nv))
     out, o = {}, 0
     for name, k in sizes:
         out[name] = o
@@ -682,7 +683,8 @@ def options(opts, rank: int, rhs_cond: float, ni: int, nv: int, nq: int):
     iopt[I_MAXITER], iopt[I_RANK], iopt[I_NEWTON] = opts.maxiter, rank, _sk.NEWTON
     for key, name in ((B_M, "M"), (B_H, "h"), (B_Q, "Q"), (B_FIRST, "first"), (B_QD, "qd"),
                       (B_EN, "en"), (B_FIG, "fig"), (B_OUT, "out"), (B_MINV, "Minv"),
-                      (B_COORD, "q"), (B_CODE, "code"), (B_QDD, "qdd"), (B_SIZE, "size")):
+                      (B_COORD, "q"), (B_CODE, "code"), (B_QDD, "qdd"), (B_PX, "px"),
+                      (B_PA, "pa"), (B_SIZE, "size")):
         iopt[key] = lay[name]
     return np.r_[_path_options(opts, 0.0), rhs_cond], iopt
 
@@ -719,12 +721,12 @@ def _cholesky_inverse(M, Minv, L):
 
 
 @numba.njit(inline="always", **_JIT)
-def _predict(PI, PF, bq, brot, bx, tangent, y, q, rot, dv, R3, qdd, k):
+def _predict(PI, PF, bq, brot, bx, tangent, y, q, rot, dv, R3, blk, iopt):
     """The base pose ``bq``, ``brot`` (at inputs ``bx`` (ni,)) moved along its ``tangent``
-    (nv, ni) to the inputs ``y[:ni]``, inputs set, into ``q`` (nq,) and ``rot`` (ns, 3, 3);
-    ``dv`` (nv,) and ``R3`` (1, 3, 3) scratch.  ``k`` not 0: plus the second-order term
-    ``k q̈_v`` (``qdd`` (nv,): :func:`_curvature`)."""
-    _tangent_step(PI, PF, bx, tangent, y, qdd, k, dv)
+    (nv, ni) to the inputs ``y[:ni]``, inputs set, into ``q`` (nq,) and ``rot`` (ns, 3, 3),
+    with the higher-order terms of the base's block ``blk`` (:func:`_curvature`); ``dv``
+    (nv,) and ``R3`` (1, 3, 3) scratch."""
+    _tangent_step(PI, PF, bx, tangent, y, blk, iopt, dv)
     _apply(PI, PF, bq, brot, dv, q, rot, R3)
     o_inq = PI[O_INQ]
     for i in range(bx.shape[0]):
@@ -732,30 +734,45 @@ def _predict(PI, PF, bq, brot, bx, tangent, y, q, rot, dv, R3, qdd, k):
 
 
 @numba.njit(inline="always", **_JIT)
-def _tangent_step(PI, PF, bx, tangent, y, qdd, k, dv):
+def _tangent_step(PI, PF, bx, tangent, y, blk, iopt, dv):
     """:func:`_predict`'s dimensionless step ``dv`` (nv,) from the inputs ``bx`` to
-    ``y[:ni]`` along ``tangent`` (plus ``k q̈_v``)."""
-    o_cs = PI[F_COLSC]
-    for c in range(PI[H_NV]):
+    ``y[:ni]``: along ``tangent``, plus ``k q̈_v`` and ``k₃ (q̈_v / ẋ·ẋ − a)`` of the
+    base's block ``blk`` (:func:`_curvature`)."""
+    nv, o_cs = PI[H_NV], PI[F_COLSC]
+    k, k3, dd = _curvature(blk, iopt, nv, bx, y)
+    o_qdd, o_pa = iopt[B_QDD], iopt[B_PA]
+    for c in range(nv):
         s = 0.0
         for i in range(bx.shape[0]):
             s += tangent[c, i] * (y[i] - bx[i])
         if k != 0.0:
-            s += k * qdd[c]
+            s += k * blk[o_qdd + c]
+        if k3 != 0.0:
+            s += k3 * (blk[o_qdd + c] / dd - blk[o_pa + c])
         dv[c] = s / PF[o_cs + c]
 
 
 @numba.njit(inline="always", **_JIT)
-def _curvature(blk, iopt, bx, y):
-    """The factor ``k = ½ τ²`` of the predictor's second-order term ``k q̈_v`` from the
-    base's block ``blk`` (:func:`layout`: where its code is :data:`OK`, its rates ``ẋ``
+def _curvature(blk, iopt, nv, bx, y):
+    """The factors ``(k, k₃, ẋ·ẋ)`` of the predictor's higher-order terms from the base's
+    block ``blk`` (:func:`layout`: where its code is :data:`OK`, its rates ``ẋ``
     (``out[:ni]``) and velocity-product accelerations ``q̈_v`` (``qdd``, the second analogs
-    contracted with ``ẋ``)) to the inputs ``y[:ni]`` from ``bx``: ``τ = Δx·ẋ / ẋ·ẋ``, exact
-    for one input and for a step along ``ẋ`` (the stages of a Runge–Kutta step), so the
-    predictor's error falls from O(Δx²) to O(Δx³) and Newton needs fewer iterations; 0
-    where the block has none (its code not OK, ``ẋ`` 0)."""
+    contracted with ``ẋ``)) to the inputs ``y[:ni]`` from ``bx``:
+
+    * second order, ``k q̈_v`` with ``k = ½ τ²``, ``τ = Δx·ẋ / ẋ·ẋ``: exact for one input
+      and for a step along ``ẋ`` (the stages of a Runge–Kutta step), so the predictor's
+      error falls from O(Δx²) to O(Δx³);
+    * third order (one input), ``k₃ (q̈_v / ẋ² − a)`` with ``k₃ = Δx³ / 6H``: ``(1/6) q‴ Δx³``
+      with ``q‴`` the difference quotient of the second analogs ``q̈_v / ẋ²`` here and
+      ``a`` (``pa``) at the base before, ``H`` (``px``) away (:func:`_base_curvature`); the
+      error falls to O(Δx³ H + Δx⁴) and Newton needs fewer iterations.  Taken where the
+      term is at most the second-order one (``|q‴ Δx| ≤ 3 |q″|``), so a poor difference
+      quotient cannot push the prediction further off.
+
+    ``k`` 0 where the block has none (its code not OK, ``ẋ`` 0), ``k₃`` 0 also where there
+    is no earlier base (``px`` NaN) or more than one input."""
     if blk[iopt[B_CODE]] != OK:
-        return 0.0
+        return 0.0, 0.0, 1.0
     o_out = iopt[B_OUT]
     dd, dx = 0.0, 0.0
     for i in range(bx.shape[0]):
@@ -763,9 +780,46 @@ def _curvature(blk, iopt, bx, y):
         dd += r * r
         dx += (y[i] - bx[i]) * r
     if not (dd > 1e-100 and dd < 1e100):
-        return 0.0
+        return 0.0, 0.0, 1.0
     tau = dx / dd
-    return 0.5 * tau * tau
+    k = 0.5 * tau * tau
+    if bx.shape[0] != 1:
+        return k, 0.0, dd
+    H = bx[0] - blk[iopt[B_PX]]
+    if not (abs(H) > 0.0):                      # no earlier base (NaN), or the same inputs
+        return k, 0.0, dd
+    D = y[0] - bx[0]
+    o_qdd, o_pa = iopt[B_QDD], iopt[B_PA]
+    s2, sd = 0.0, 0.0
+    for c in range(nv):
+        a = blk[o_qdd + c] / dd
+        e = a - blk[o_pa + c]
+        s2 += a * a
+        sd += e * e
+    if not (sd * D * D <= 9.0 * s2 * H * H):    # |q‴ Δx| > 3 |q″|: no third-order term
+        return k, 0.0, dd
+    return k, D * D * D / (6.0 * H), dd
+
+
+@numba.njit(inline="always", **_JIT)
+def _base_curvature(blk, iopt, nv, bx, px, pa):
+    """The base's inputs and second analogs ``q̈_v / ẋ²`` from its block ``blk`` (one input,
+    code OK, ``ẋ`` not 0) into ``px`` (1,) and ``pa`` (nv,), kept for the third-order term
+    of the predictor after the next (:func:`_curvature`); ``px`` NaN (and ``pa`` 0) where
+    there are none."""
+    px[0] = np.nan
+    for c in range(nv):
+        pa[c] = 0.0
+    if bx.shape[0] != 1 or blk[iopt[B_CODE]] != OK:
+        return
+    r = blk[iopt[B_OUT]]
+    dd = r * r
+    if not (dd > 1e-100 and dd < 1e100):
+        return
+    o_qdd = iopt[B_QDD]
+    for c in range(nv):
+        pa[c] = blk[o_qdd + c] / dd
+    px[0] = bx[0]
 
 
 @_njit
@@ -774,7 +828,8 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
     """The compiled steps of the dynamics (module notes), by ``task``:
 
     * ``PREDICT``: the tracker's base pose (``bq``, ``brot`` at inputs ``bx``) moved along
-      its ``tangent`` (nv, ni) to the inputs ``y[:ni]``, inputs set, into ``q[0]``,
+      its ``tangent`` (nv, ni) to the inputs ``y[:ni]`` (with the higher-order terms of the
+      block ``buf``, :func:`_curvature`), inputs set, into ``q[0]``,
       ``rot[0]`` (the batch-of-one state the solver's Newton corrects next:
       :func:`closure.solve_kernels.drive`, task ``NEWTON``).
     * ``TRACK``: that corrected state (``q``, ``rot``, ``S`` and the solver's ``res``,
@@ -785,8 +840,8 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
     * ``RHS``: the right-hand side of B ≥ 1 trajectories (:func:`_stage_members`; ``q`` ...
       ``flag`` unused): for member b (base pose, inputs and tangent stacked in ``bq``
       (B·nq), ``brot`` (B·ns, 3, 3), ``bx`` (B·ni) and ``tangent`` (B·nv, ni), its state in
-      ``y`` (B·(2 ni + 2)), its fields in block b of ``buf``) ``PREDICT`` with a
-      second-order term, the solver's Newton, the pose judged as ``TRACK`` (the
+      ``y`` (B·(2 ni + 2)), its fields in block b of ``buf``) ``PREDICT`` (the base
+      before kept for the next), the solver's Newton, the pose judged as ``TRACK`` (the
       condition number computed only where the estimate exceeds ``fopts[8]``), then the
       terms at the pose at rates ``y[ni:2 ni]``, the pose's coordinates into the block's
       ``q``; on a regular pose the first analogs become the ``tangent``, and ``out`` =
@@ -804,9 +859,8 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
     ni = icols.shape[0]
     nv, nu = PI[H_NV], ucols.shape[0]
     if task == PREDICT:                 # the batch-of-one member 0
-        o_qdd = iopt[B_QDD]
         _predict(PI, PF, bq, brot, bx, tangent, y, q[0], rot[0], np.zeros(nv),
-                 np.zeros((1, 3, 3)), buf[o_qdd:o_qdd + nv], 0.0)
+                 np.zeros((1, 3, 3)), buf, iopt)
         return OK
     if task == RHS:
         return _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols,
@@ -970,7 +1024,7 @@ def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, b
     trajectories (one: :meth:`closure.Dynamics.simulate`; B:
     :func:`closure.batch_dynamics.simulate_batch`), each on its own, in one pass: the
     member's base pose moved along its tangent to the stage's inputs with the
-    second-order term along its last rates (:func:`_predict`, :func:`_curvature`),
+    higher-order terms of its block (:func:`_predict`, :func:`_curvature`),
     corrected by the solver's Newton (:func:`closure.solve_kernels._newton`, in scratch),
     then judged and the terms formed (:func:`_pose_rhs`) with the Newton's last
     factorisation where it is the pose's and dense (one loop), so the Jacobian is not
@@ -981,7 +1035,8 @@ def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, b
     code is not :data:`OK`."""
     ni, nu, rank, maxiter = icols.shape[0], ucols.shape[0], iopt[I_RANK], iopt[I_MAXITER]
     nv, nj, nl, nc = PI[H_NV], PI[H_NJ], PI[H_NL], PI[H_NC]
-    mm, blk, o_qdd, o_code = 2 * ni + 2, iopt[B_SIZE], iopt[B_QDD], iopt[B_CODE]
+    mm, blk, o_code = 2 * ni + 2, iopt[B_SIZE], iopt[B_CODE]
+    o_px, o_pa = iopt[B_PX], iopt[B_PA]
     B = max(bx.shape[0] // ni, 1)
     nq, ns = bq.shape[0] // B, brot.shape[0] // B
     P, Pi = _pattern(PI, PF, ucols), _pattern(PI, PF, icols)
@@ -1016,8 +1071,8 @@ def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, b
         xb, yb, blk_b = bx[b * ni:(b + 1) * ni], y[a * mm:(a + 1) * mm], buf[o:o + blk]
         bq_b, brot_b, tan_b = bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns], \
             tangent[b * nv:(b + 1) * nv]
-        _predict(PI, PF, bq_b, brot_b, xb, tan_b, yb, co[0], co[1], dv, R3,
-                 buf[o + o_qdd:o + o_qdd + nv], _curvature(blk_b, iopt, xb, yb))
+        _predict(PI, PF, bq_b, brot_b, xb, tan_b, yb, co[0], co[1], dv, R3, blk_b, iopt)
+        _base_curvature(blk_b, iopt, nv, xb, blk_b[o_px:o_px + 1], blk_b[o_pa:o_pa + nv])
         co, trial, done, n_res, n_its, n_cond, _, at_pose, fast, inv0 = _newton(
             PI, PF, PM, co, trial, maxiter, False, ucols, icols, P, Pi, W, Wd, Wi, Jp, rs, step,
             R, X, T, w3, R3, rank, fopts, False)
@@ -1049,7 +1104,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
     bit for bit."""
     ni, nu, rank, maxiter = icols.shape[0], ucols.shape[0], iopt[I_RANK], iopt[I_MAXITER]
     nv, nj, nl, nc = PI[H_NV], PI[H_NJ], PI[H_NL], PI[H_NC]
-    mm, blk, o_qdd, o_inq = 2 * ni + 2, iopt[B_SIZE], iopt[B_QDD], PI[O_INQ]
+    mm, blk, o_inq, o_px, o_pa = 2 * ni + 2, iopt[B_SIZE], PI[O_INQ], iopt[B_PX], iopt[B_PA]
     B, NA = bx.shape[0] // ni, members.shape[0]
     nq, ns = bq.shape[0] // B, brot.shape[0] // B
     m = 6 * nc
@@ -1071,7 +1126,8 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
            (np.zeros(nq), np.zeros((ns, 3, 3)), np.zeros((nv, 6)), np.zeros((1, 3, 3))),
            (np.zeros((m, nu)), np.zeros((m, 1)), np.zeros((nu, 1))), _lsq_work(m, nu, ni),
            _work(PI, ni, nu),
-           (np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L), np.zeros((ni, L))),
+           (np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L), np.zeros((ni, L)), np.zeros(L),
+            np.zeros((nv, L))),
            (np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.bool_),
             np.zeros(L, dtype=np.bool_)),
            _lane_work(PI, ni, nu),
@@ -1094,10 +1150,10 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
     Jd, Rd, Xd = own[6]
     Jd, Rd, Xd = _borrowed(Jd), _borrowed(Rd), _borrowed(Xd)
     Wd, wk = _borrowed_lsq_work(own[7]), _borrowed_work(own[8])
-    n_res, prev, inv0, wait, xd = own[9]
+    n_res, prev, inv0, wait, xd, bpx, bpa = own[9]
     n_res, prev, inv0, wait = _borrowed(n_res), _borrowed(prev), _borrowed(inv0), \
         _borrowed(wait)
-    xd = _borrowed(xd)
+    xd, bpx, bpa = _borrowed(xd), _borrowed(bpx), _borrowed(bpa)
     n_its, done, ready = own[10]
     n_its, done, ready = _borrowed(n_its), _borrowed(done), _borrowed(ready)
     sc = own[11]
@@ -1121,10 +1177,9 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
         for l in range(LN):                     # the predictors (_predict), into the block
             a, b = a0 + l, members[a0 + l]
             o = b * blk
-            xb, yb = bx[b * ni:(b + 1) * ni], y[a * mm:(a + 1) * mm]
-            _tangent_step(PI, PF, xb, tangent[b * nv:(b + 1) * nv], yb,
-                          buf[o + o_qdd:o + o_qdd + nv], _curvature(buf[o:o + blk], iopt, xb, yb),
-                          stp[:, l])
+            xb, yb, blk_b = bx[b * ni:(b + 1) * ni], y[a * mm:(a + 1) * mm], buf[o:o + blk]
+            _tangent_step(PI, PF, xb, tangent[b * nv:(b + 1) * nv], yb, blk_b, iopt, stp[:, l])
+            _base_curvature(blk_b, iopt, nv, xb, bpx[l:l + 1], bpa[:, l])
             _to_lane(bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns], tri[0], tri[1], l)
         _lk.apply(PI, PF, tri[0], tri[1], stp, cur[0], cur[1], R3, LN)
         for l in range(LN):
@@ -1237,6 +1292,9 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
                 buf[o + iopt[B_CODE]] = code
                 if code != OK:
                     n_bad += 1
+                buf[o + o_px] = bpx[l]              # the base before, for the next predictor
+                for c in range(nv):
+                    buf[o + o_pa + c] = bpa[c, l]
         for l in range(LN):                     # the others: the one-member stage, again
             if not ready[l]:
                 a = a0 + l

@@ -320,3 +320,41 @@ def test_simulated_fourbar_against_the_closed_form_reference():
         assert err < 20 * np.abs(ref.y[0] - strict.y[0]).max()    # the model's own error
         assert np.abs(df.balance).max() < balance_max
         assert df.residual.max() < 1e-12 and (df.flag == "").all()
+
+
+def _predicted(mem, y):
+    """Task PREDICT of member 0 of ``mem`` (a batch of one) at the state ``y``: the
+    predicted coordinates (nq,)."""
+    nq = mem.bq.shape[1]
+    q, rot = np.zeros((1, nq)), np.zeros((1,) + mem.brot.shape[1:])
+    dk.step(dk.PREDICT, *mem._stage_head, q, rot, np.zeros((0, 0, 4, 4)),
+            np.zeros((0, 0, 6)), np.zeros(0), np.zeros(0), np.zeros(0, dtype=np.int64),
+            np.zeros(0, dtype=np.int64), mem.bq[0], mem.brot[0], mem.bx[0], mem.tangent[0],
+            y, mem.buf)
+    return q[0]
+
+
+@pytest.mark.parametrize("third", [True, False])
+def test_the_predictor_is_fourth_order_with_its_third_order_term(third):
+    """Two right-hand sides at x1 = x2 − H and x2, then the prediction at x2 + Δ against the
+    solved pose there: error O(Δ⁴) for H = Δ (third-order term from the two poses' second
+    analogs), O(Δ³) without it (the block's earlier base forgotten)."""
+    from closure.batch_dynamics import _Members
+    d = fourbar_dynamics()
+    x2, rate = 0.4, 1.3
+    errors = []
+    for D in (0.08, 0.04, 0.02, 0.01):
+        start = d.m.solve(np.array([[x2 - 2 * D]]))
+        mem = _Members(d, start, np.array([True]), np.array([[rate]]), SolverOptions())
+        for x in (x2 - D, x2):                           # the stages: the bases there
+            y = np.array([x, rate, 0.0, 0.0])
+            assert mem.solve(np.zeros(1, dtype=np.int64), y) == 0
+        if not third:
+            mem.buf[mem.layout["px"]] = np.nan
+        q = _predicted(mem, np.array([x2 + D, rate, 0.0, 0.0]))
+        errors.append(np.abs(q - d.m.solve(np.array([[x2 + D]])).q[0]).max())
+    order = np.log2(np.array(errors[:-1]) / errors[1:])
+    if third:
+        assert np.all(order > 3.6)
+    else:
+        assert np.all((order > 2.7) & (order < 3.3))

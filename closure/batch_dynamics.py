@@ -6,7 +6,7 @@ one :class:`~closure.dynamics.Dynamics` model with
 member).  Each stage of the active members is one compiled call for them all
 (:func:`closure.dynamics_kernels.stage`, task ``RHS``), the kernel code that one
 right-hand side of :meth:`~closure.dynamics.Dynamics.simulate` runs for its single
-trajectory, with no Python per member (for a one-loop mechanism, 16 members at a time in
+trajectory, with no Python per member (for a one-loop mechanism, 64 members at a time in
 SIMD lanes, :mod:`closure.lane_kernels`: the same arithmetic, so a member's right-hand
 side is the one ``simulate`` computes at the same state, bit for bit); for each member:
 

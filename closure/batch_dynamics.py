@@ -38,6 +38,7 @@ from the compiled terms there: all members and times in one call of the stage.
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Callable
 
@@ -149,19 +150,30 @@ class _Members:
         self.tangent0 = self.tangent.copy()
         self.buf = np.zeros(B * self.size)
         self.blocks = self.buf.reshape(B, self.size)
+        # no output times: the stage's T, t, near and kept poses empty
+        self._nokeep = (np.zeros(0), np.zeros(0), np.zeros((0, 0)), np.zeros((0, 0, nq)),
+                        np.zeros((0, 0) + self.brot.shape[1:]), np.zeros((0, 0, n)),
+                        np.zeros((0, 0, nv, n)))
+        self._keep = None
         self._stage = dk.stage
         # the stage's arguments before the members' arrays
         self._stage_head = (*plan.packed, DI, DF, fopts, iopt, plan._ucols, plan._icols)
 
-    def solve(self, members: np.ndarray, y: np.ndarray) -> int:
-        """The right-hand side of ``members`` (A,) int64 at states ``y`` (A, 2n + 2)
-        (C-contiguous): one compiled call for them all
+    def solve(self, members: np.ndarray, y: np.ndarray, t: np.ndarray) -> int:
+        """The right-hand side of ``members`` (A,) int64 at times ``t`` (A,) and states ``y``
+        (A, 2n + 2) (C-contiguous): one compiled call for them all
         (:func:`closure.dynamics_kernels.stage`, task ``RHS``: predictor, the solver's
         Newton, terms), into their rows of :attr:`blocks` (their bases and tangents moved
-        in place).  Returns the number of members whose code is not ``OK``."""
+        in place; after :meth:`keep_outputs`, those whose code is ``OK`` kept for the
+        output times, as :meth:`keep`).  Returns the number of members whose code is not
+        ``OK``."""
+        if self._keep is None:
+            keep = self._nokeep
+        else:
+            keep = (self._T, np.ascontiguousarray(self._dir * t, dtype=float)) + self._keep
         return self._stage(*self._stage_head, members, self.bq.reshape(-1),
                            self.brot.reshape(-1, 3, 3), self.bx.reshape(-1),
-                           self.tangent.reshape(-1, self.n), y.reshape(-1), self.buf)
+                           self.tangent.reshape(-1, self.n), y.reshape(-1), self.buf, *keep)
 
     def keep_outputs(self, t_eval: np.ndarray, direction: float) -> None:
         """From now on keep, for every output time of ``t_eval`` (N,) and every member, its
@@ -174,6 +186,7 @@ class _Members:
         self.near = np.full((B, N), np.inf)
         self.kept = tuple(np.zeros((B, N) + a.shape[1:]) for a in
                           (self.bq, self.brot, self.bx, self.tangent))
+        self._keep = (self.near, *self.kept)
 
     def keep(self, t: np.ndarray, members: np.ndarray) -> None:
         """The bases of ``members`` (A,) int64, solved at times ``t`` (A,), as the poses
@@ -186,7 +199,13 @@ class _Members:
     def field(self, blocks: np.ndarray, name: str, shape: tuple) -> np.ndarray:
         """Field ``name`` of the blocks (A, size) as an (A, *shape) view."""
         o = self.layout[name]
-        return blocks[:, o:o + int(np.prod(shape))].reshape((len(blocks),) + shape)
+        return blocks[:, o:o + math.prod(shape)].reshape((len(blocks),) + shape)
+
+    def rows(self, name: str, shape: tuple, members: np.ndarray) -> np.ndarray:
+        """Field ``name`` of the blocks of ``members`` (A,) (ascending), an (A, *shape)
+        copy."""
+        v = self.field(self.blocks, name, shape)
+        return v.copy() if len(members) == self.B else np.take(v, members, axis=0)
 
     def pose(self, g: int) -> Pose:
         """The Pose of member ``g``'s base with the figures of its block."""
@@ -216,7 +235,8 @@ class _Members:
         P = len(y)
         buf = np.zeros(P * self.size)
         self._stage(*self._stage_head, np.arange(P), q.reshape(-1), rot.reshape(-1, 3, 3),
-                    x.reshape(-1), tangent.reshape(-1, self.n), y.reshape(-1), buf)
+                    x.reshape(-1), tangent.reshape(-1, self.n), y.reshape(-1), buf,
+                    *self._nokeep)
         return buf.reshape(P, self.size)
 
 
@@ -392,11 +412,11 @@ def _right_hand_side(dynamics, mem: _Members, ok0: np.ndarray, drive, opts: Solv
             mk = np.array(members[rows], dtype=np.int64)
             yk = np.array(y[rows], dtype=float, order="C")
         tk = np.asarray(t)[rows]
-        n_bad = mem.solve(mk, yk)
+        n_bad = mem.solve(mk, yk, tk)
         blocks = mem.blocks
-        out = mem.field(blocks, "out", (2 * n + 2,))[mk]
+        out = mem.rows("out", (2 * n + 2,), mk)
         regular = n_bad == 0
-        code = None if regular else mem.field(blocks, "code", (1,))[mk, 0].astype(np.int64)
+        code = None if regular else mem.rows("code", (1,), mk)[:, 0].astype(np.int64)
 
         def fail(a, why):
             nonlocal failed
@@ -439,9 +459,9 @@ def _right_hand_side(dynamics, mem: _Members, ok0: np.ndarray, drive, opts: Solv
                     fail(a, why)
                 else:
                     out[a] = row
-        if keep:                                  # the poses solved, for the outputs
-            mem.keep(tk if regular else tk[code != dk.NOT_CLOSED],
-                     mk if regular else mk[code != dk.NOT_CLOSED])
+        if keep and not regular:                  # the poses solved here, for the outputs
+            sel = (code != dk.OK) & (code != dk.NOT_CLOSED)   # (the stage kept the OK ones)
+            mem.keep(tk[sel], mk[sel])
         if all_ok:
             return out if failed is None else (out, failed)
         dydt = np.full((A, 2 * n + 2), np.nan)

@@ -37,8 +37,8 @@ factor) and the caller takes the pose-by-pose path.  Batched forward dynamics
 Jacobian is dense and of full expected rank (one loop), the Newton of
 :data:`closure.lane_kernels.LANES` members at a time in SIMD lanes (:func:`_stage_lanes`:
 the same arithmetic, so every member's right-hand side is the one-member stage's bit for
-bit), else member by member; :func:`nearest_poses` keeps each member's solved pose
-nearest every output time.
+bit), else member by member; it also keeps each member's solved pose nearest every
+output time (:func:`nearest_poses`).
 
 The mechanism's structure comes packed by :func:`closure.solve_kernels.pack`; the
 dynamics' own data by :func:`pack` here, into ``DI`` (int64: counts, offsets, each
@@ -998,23 +998,38 @@ def _settle(PI, PF, fopts, iopt, ucols, icols, q, rot, S, res, its, flag, bq, br
 
 @_njit
 def stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, brot, bx, tangent, y,
-          buf):
+          buf, T, t, near, sq, srot, sx, stan):
     """Task ``RHS`` of :func:`step` for A members of a batch
     (:func:`closure.batch_dynamics.simulate_batch`), with :func:`step`'s arguments from
     ``PI`` on (``q`` ... ``flag`` left out) and ``members`` (A,) int64, the members' indices
     in the batch's stacked bases and blocks (``bq`` ... ``tangent``, ``buf``: every member
     of the batch; ``y`` (A·(2 ni + 2)): the A members' states, in order):
     :func:`_stage_lanes` where A > 1 and the loop Jacobian is dense and of full expected
-    rank (one loop), else :func:`_stage_members`.  An entry of its own, so that the lanes
+    rank (one loop), else :func:`_stage_members`.  Then, with output times ``T`` (N,
+    ascending; N = 0: none), each member whose code is :data:`OK`, solved at the time
+    ``t[a]``, has its new base kept for the output times around it
+    (:func:`nearest_poses`: ``near`` ... ``stan``).  An entry of its own, so that the lanes
     compile when a batch first needs them, not with :func:`step`."""
     nu, rank = ucols.shape[0], iopt[I_RANK]
     m = 6 * PI[H_NC]
     if members.shape[0] > 1 and m > 0 and nu > 0 and \
             min(rank, m, nu) == min(m, nu) and _pattern(PI, PF, ucols)[P_DENSE] == 1:
-        return _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, brot,
-                            bx, tangent, y, buf)
-    return _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, brot,
-                          bx, tangent, y, buf)
+        n_bad = _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, brot,
+                             bx, tangent, y, buf)
+    else:
+        n_bad = _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq,
+                               brot, bx, tangent, y, buf)
+    if T.shape[0]:
+        ni, nv, blk, o_code = icols.shape[0], PI[H_NV], iopt[B_SIZE], iopt[B_CODE]
+        B = bx.shape[0] // ni
+        nq, ns = bq.shape[0] // B, brot.shape[0] // B
+        for a in range(members.shape[0]):
+            g = members[a]
+            if buf[g * blk + o_code] == OK:
+                _keep_nearest(T, t[a], g, bq[g * nq:(g + 1) * nq], brot[g * ns:(g + 1) * ns],
+                              bx[g * ni:(g + 1) * ni], tangent[g * nv:(g + 1) * nv], near, sq,
+                              srot, sx, stan)
+    return n_bad
 
 
 @_njit
@@ -1387,28 +1402,35 @@ def nearest_poses(T, t, members, bq, brot, bx, tangent, near, sq, srot, sx, stan
     ``stan[g, k]`` of the output times ``T[k]`` either side of ``t[a]`` (``T`` ascending;
     times of a backward run negated) where it is nearer than the one kept, ``near[g, k]``
     (initially inf) its distance in time."""
-    N = T.shape[0]
     for a in range(members.shape[0]):
-        g, ta = members[a], t[a]
-        lo, hi = 0, N                           # the first output time at or after ta
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if T[mid] < ta:
-                lo = mid + 1
-            else:
-                hi = mid
-        for k in range(max(lo - 1, 0), min(lo + 1, N)):
-            d = abs(ta - T[k])
-            if d < near[g, k]:
-                near[g, k] = d
-                for i in range(bq.shape[1]):
-                    sq[g, k, i] = bq[g, i]
-                for s_ in range(brot.shape[1]):
-                    for i in range(3):
-                        for j in range(3):
-                            srot[g, k, s_, i, j] = brot[g, s_, i, j]
-                for i in range(bx.shape[1]):
-                    sx[g, k, i] = bx[g, i]
-                for c in range(tangent.shape[1]):
-                    for i in range(tangent.shape[2]):
-                        stan[g, k, c, i] = tangent[g, c, i]
+        g = members[a]
+        _keep_nearest(T, t[a], g, bq[g], brot[g], bx[g], tangent[g], near, sq, srot, sx, stan)
+
+
+@numba.njit(inline="always", **_JIT)
+def _keep_nearest(T, ta, g, q, rot, x, tan, near, sq, srot, sx, stan):
+    """:func:`nearest_poses` of member ``g`` solved at the time ``ta``: its pose ``q`` (nq,),
+    ``rot`` (ns, 3, 3), ``x`` (ni,), ``tan`` (nv, ni)."""
+    N = T.shape[0]
+    lo, hi = 0, N                               # the first output time at or after ta
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if T[mid] < ta:
+            lo = mid + 1
+        else:
+            hi = mid
+    for k in range(max(lo - 1, 0), min(lo + 1, N)):
+        d = abs(ta - T[k])
+        if d < near[g, k]:
+            near[g, k] = d
+            for i in range(q.shape[0]):
+                sq[g, k, i] = q[i]
+            for s_ in range(rot.shape[0]):
+                for i in range(3):
+                    for j in range(3):
+                        srot[g, k, s_, i, j] = rot[s_, i, j]
+            for i in range(x.shape[0]):
+                sx[g, k, i] = x[i]
+            for c in range(tan.shape[0]):
+                for i in range(tan.shape[1]):
+                    stan[g, k, c, i] = tan[c, i]

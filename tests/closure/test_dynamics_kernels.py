@@ -348,7 +348,7 @@ def test_the_predictor_is_fourth_order_with_its_third_order_term(third):
         mem = _Members(d, start, np.array([True]), np.array([[rate]]), SolverOptions())
         for x in (x2 - D, x2):                           # the stages: the bases there
             y = np.array([x, rate, 0.0, 0.0])
-            assert mem.solve(np.zeros(1, dtype=np.int64), y) == 0
+            assert mem.solve(np.zeros(1, dtype=np.int64), y, np.zeros(1)) == 0
         if not third:
             mem.buf[mem.layout["px"]] = np.nan
         q = _predicted(mem, np.array([x2 + D, rate, 0.0, 0.0]))

@@ -62,7 +62,7 @@ def _stage(mem, y, per_member, members=None):
     else:
         bad = dk.stage(*mem._stage_head, members.astype(np.int64), bq.reshape(-1),
                        brot.reshape(-1, 3, 3), bx.reshape(-1), tan.reshape(-1, n),
-                       y.reshape(-1), buf)
+                       y.reshape(-1), buf, *mem._nokeep)
     return (bq, brot, bx, tan, buf, y), bad
 
 

@@ -661,7 +661,7 @@ def layout(ni: int, nv: int, nq: int) -> dict:
     and spring energy), ``fig`` (5), ``out`` (2 ni + 2), ``Minv`` (ni, ni), ``q`` (nq),
     ``code`` (1: the pose's code of task ``RHS``), ``qdd`` (nv: the velocity-product
     accelerations), ``px`` (1), ``pa`` (nv) (the base before: its input and second analogs,
-    :func:`_base_curvature`)."""
+    :func:`_keep_analogs`)."""
     sizes = (("M", ni * ni), ("h", ni), ("Q", ni), ("first", nv * ni), ("qd", nv), ("en", 3),
              ("fig", 5), ("out", 2 * ni + 2), ("Minv", ni * ni), ("q", nq), ("code", 1),
              ("qdd", nv), ("px", 1), ("pa", nv))
@@ -700,6 +700,14 @@ def _exact_condition(PI, PF, S, ucols, rank, Ju, W):
 
 
 @numba.njit(inline="always", **_JIT)
+def _member_sizes(ni, bq, brot, bx):
+    """``(nq, ns)``: a member's stored coordinates and rotations in the stacked bases
+    ``bq`` (B·nq), ``brot`` (B·ns, 3, 3) at inputs ``bx`` (B·ni)."""
+    B = max(bx.shape[0] // ni, 1)
+    return bq.shape[0] // B, brot.shape[0] // B
+
+
+@numba.njit(inline="always", **_JIT)
 def _cholesky_inverse(M, Minv, L):
     """``Minv = M⁻¹`` of a symmetric positive definite ``M`` (Cholesky); False when the
     factorisation fails."""
@@ -721,25 +729,29 @@ def _cholesky_inverse(M, Minv, L):
 
 
 @numba.njit(inline="always", **_JIT)
-def _predict(PI, PF, bq, brot, bx, tangent, y, q, rot, dv, R3, blk, iopt):
+def _predict(PI, PF, bq, brot, bx, tangent, y, q, rot, dv, R3, blk, iopt, a):
     """The base pose ``bq``, ``brot`` (at inputs ``bx`` (ni,)) moved along its ``tangent``
     (nv, ni) to the inputs ``y[:ni]``, inputs set, into ``q`` (nq,) and ``rot`` (ns, 3, 3),
     with the higher-order terms of the base's block ``blk`` (:func:`_curvature`); ``dv``
-    (nv,) and ``R3`` (1, 3, 3) scratch."""
-    _tangent_step(PI, PF, bx, tangent, y, blk, iopt, dv)
+    (nv,) and ``R3`` (1, 3, 3) scratch, ``a`` (nv,) the base's second analogs
+    (:func:`_tangent_step`).  Returns :func:`_tangent_step`'s flag."""
+    has = _tangent_step(PI, PF, bx, tangent, y, blk, iopt, dv, a)
     _apply(PI, PF, bq, brot, dv, q, rot, R3)
     o_inq = PI[O_INQ]
     for i in range(bx.shape[0]):
         q[PI[o_inq + i]] = y[i]
+    return has
 
 
 @numba.njit(inline="always", **_JIT)
-def _tangent_step(PI, PF, bx, tangent, y, blk, iopt, dv):
+def _tangent_step(PI, PF, bx, tangent, y, blk, iopt, dv, a):
     """:func:`_predict`'s dimensionless step ``dv`` (nv,) from the inputs ``bx`` to
     ``y[:ni]``: along ``tangent``, plus ``k q̈_v`` and ``k₃ (q̈_v / ẋ·ẋ − a)`` of the
-    base's block ``blk`` (:func:`_curvature`)."""
+    base's block ``blk`` (:func:`_curvature`, which leaves the base's second analogs
+    ``q̈_v / ẋ²`` in ``a`` (nv,) where it returns True: :func:`_keep_analogs` keeps them
+    for the predictor after the next)."""
     nv, o_cs = PI[H_NV], PI[F_COLSC]
-    k, k3, dd = _curvature(blk, iopt, nv, bx, y)
+    k, k3, dd, has = _curvature(blk, iopt, nv, bx, y, a)
     o_qdd, o_pa = iopt[B_QDD], iopt[B_PA]
     for c in range(nv):
         s = 0.0
@@ -748,14 +760,15 @@ def _tangent_step(PI, PF, bx, tangent, y, blk, iopt, dv):
         if k != 0.0:
             s += k * blk[o_qdd + c]
         if k3 != 0.0:
-            s += k3 * (blk[o_qdd + c] / dd - blk[o_pa + c])
+            s += k3 * (a[c] - blk[o_pa + c])
         dv[c] = s / PF[o_cs + c]
+    return has
 
 
 @numba.njit(inline="always", **_JIT)
-def _curvature(blk, iopt, nv, bx, y):
-    """The factors ``(k, k₃, ẋ·ẋ)`` of the predictor's higher-order terms from the base's
-    block ``blk`` (:func:`layout`: where its code is :data:`OK`, its rates ``ẋ``
+def _curvature(blk, iopt, nv, bx, y, a):
+    """The factors ``(k, k₃, ẋ·ẋ, has)`` of the predictor's higher-order terms from the
+    base's block ``blk`` (:func:`layout`: where its code is :data:`OK`, its rates ``ẋ``
     (``out[:ni]``) and velocity-product accelerations ``q̈_v`` (``qdd``, the second analogs
     contracted with ``ẋ``)) to the inputs ``y[:ni]`` from ``bx``:
 
@@ -764,15 +777,16 @@ def _curvature(blk, iopt, nv, bx, y):
       error falls from O(Δx²) to O(Δx³);
     * third order (one input), ``k₃ (q̈_v / ẋ² − a)`` with ``k₃ = Δx³ / 6H``: ``(1/6) q‴ Δx³``
       with ``q‴`` the difference quotient of the second analogs ``q̈_v / ẋ²`` here and
-      ``a`` (``pa``) at the base before, ``H`` (``px``) away (:func:`_base_curvature`); the
+      ``a`` (``pa``) at the base before, ``H`` (``px``) away (:func:`_keep_analogs`); the
       error falls to O(Δx³ H + Δx⁴) and Newton needs fewer iterations.  Taken where the
       term is at most the second-order one (``|q‴ Δx| ≤ 3 |q″|``), so a poor difference
       quotient cannot push the prediction further off.
 
     ``k`` 0 where the block has none (its code not OK, ``ẋ`` 0), ``k₃`` 0 also where there
-    is no earlier base (``px`` NaN) or more than one input."""
+    is no earlier base (``px`` NaN) or more than one input.  ``has``: the base's second
+    analogs ``q̈_v / ẋ²`` are in ``a`` (nv,) (one input, code OK, ``ẋ`` not 0)."""
     if blk[iopt[B_CODE]] != OK:
-        return 0.0, 0.0, 1.0
+        return 0.0, 0.0, 1.0, False
     o_out = iopt[B_OUT]
     dd, dx = 0.0, 0.0
     for i in range(bx.shape[0]):
@@ -780,46 +794,42 @@ def _curvature(blk, iopt, nv, bx, y):
         dd += r * r
         dx += (y[i] - bx[i]) * r
     if not (dd > 1e-100 and dd < 1e100):
-        return 0.0, 0.0, 1.0
+        return 0.0, 0.0, 1.0, False
     tau = dx / dd
     k = 0.5 * tau * tau
     if bx.shape[0] != 1:
-        return k, 0.0, dd
+        return k, 0.0, dd, False
+    o_qdd, o_pa = iopt[B_QDD], iopt[B_PA]
+    for c in range(nv):
+        a[c] = blk[o_qdd + c] / dd
     H = bx[0] - blk[iopt[B_PX]]
     if not (abs(H) > 0.0):                      # no earlier base (NaN), or the same inputs
-        return k, 0.0, dd
+        return k, 0.0, dd, True
     D = y[0] - bx[0]
-    o_qdd, o_pa = iopt[B_QDD], iopt[B_PA]
     s2, sd = 0.0, 0.0
     for c in range(nv):
-        a = blk[o_qdd + c] / dd
-        e = a - blk[o_pa + c]
-        s2 += a * a
+        e = a[c] - blk[o_pa + c]
+        s2 += a[c] * a[c]
         sd += e * e
     if not (sd * D * D <= 9.0 * s2 * H * H):    # |q‴ Δx| > 3 |q″|: no third-order term
-        return k, 0.0, dd
-    return k, D * D * D / (6.0 * H), dd
+        return k, 0.0, dd, True
+    return k, D * D * D / (6.0 * H), dd, True
 
 
 @numba.njit(inline="always", **_JIT)
-def _base_curvature(blk, iopt, nv, bx, px, pa):
-    """The base's inputs and second analogs ``q̈_v / ẋ²`` from its block ``blk`` (one input,
-    code OK, ``ẋ`` not 0) into ``px`` (1,) and ``pa`` (nv,), kept for the third-order term
-    of the predictor after the next (:func:`_curvature`); ``px`` NaN (and ``pa`` 0) where
-    there are none."""
-    px[0] = np.nan
-    for c in range(nv):
-        pa[c] = 0.0
-    if bx.shape[0] != 1 or blk[iopt[B_CODE]] != OK:
-        return
-    r = blk[iopt[B_OUT]]
-    dd = r * r
-    if not (dd > 1e-100 and dd < 1e100):
-        return
-    o_qdd = iopt[B_QDD]
-    for c in range(nv):
-        pa[c] = blk[o_qdd + c] / dd
-    px[0] = bx[0]
+def _keep_analogs(has, bx, a, px, pa):
+    """The base's inputs and second analogs ``q̈_v / ẋ²`` (``a`` (nv,), where ``has``:
+    :func:`_curvature`) into ``px`` (1,) and ``pa`` (nv,), kept for the third-order term
+    of the predictor after the next; ``px`` NaN (and ``pa`` 0) where there are none.
+    ``pa`` may be ``a`` itself."""
+    if has:
+        px[0] = bx[0]
+        for c in range(a.shape[0]):
+            pa[c] = a[c]
+    else:
+        px[0] = np.nan
+        for c in range(a.shape[0]):
+            pa[c] = 0.0
 
 
 @_njit
@@ -860,7 +870,7 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
     nv, nu = PI[H_NV], ucols.shape[0]
     if task == PREDICT:                 # the batch-of-one member 0
         _predict(PI, PF, bq, brot, bx, tangent, y, q[0], rot[0], np.zeros(nv),
-                 np.zeros((1, 3, 3)), buf, iopt)
+                 np.zeros((1, 3, 3)), buf, iopt, np.zeros(nv))
         return OK
     if task == RHS:
         return _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols,
@@ -1021,8 +1031,7 @@ def stage(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, brot, bx, 
                                brot, bx, tangent, y, buf)
     if T.shape[0]:
         ni, nv, blk, o_code = icols.shape[0], PI[H_NV], iopt[B_SIZE], iopt[B_CODE]
-        B = bx.shape[0] // ni
-        nq, ns = bq.shape[0] // B, brot.shape[0] // B
+        nq, ns = _member_sizes(ni, bq, brot, bx)
         for a in range(members.shape[0]):
             g = members[a]
             if buf[g * blk + o_code] == OK:
@@ -1052,8 +1061,7 @@ def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, b
     nv, nj, nl, nc = PI[H_NV], PI[H_NJ], PI[H_NL], PI[H_NC]
     mm, blk, o_code = 2 * ni + 2, iopt[B_SIZE], iopt[B_CODE]
     o_px, o_pa = iopt[B_PX], iopt[B_PA]
-    B = max(bx.shape[0] // ni, 1)
-    nq, ns = bq.shape[0] // B, brot.shape[0] // B
+    nq, ns = _member_sizes(ni, bq, brot, bx)
     P, Pi = _pattern(PI, PF, ucols), _pattern(PI, PF, icols)
     m = P[P_M]
     # the Newton's scratch (its dense factors wide enough for the terms' ni right-hand
@@ -1061,7 +1069,7 @@ def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, b
     own = (P, Pi, _sp_work(P, 1), _lsq_work(m, nu, ni), np.zeros(6 * Pi[P_NNZ]),
            np.zeros(max(6 * P[P_NNZ], m * nu)),
            (_member_state(nq, ns, nj, nl, nc, nv, 0), _member_state(nq, ns, nj, nl, nc, nv, 0)),
-           (np.zeros(m), np.zeros(nv), np.zeros(3), np.zeros(nv), np.zeros(nv)),
+           (np.zeros(m), np.zeros(nv), np.zeros(3), np.zeros(nv), np.zeros(nv), np.zeros(nv)),
            (np.zeros((m, 1)), np.zeros((nu, 1))), (np.zeros((3, 4, 4)), np.zeros((1, 3, 3))),
            _work(PI, ni, nu))
     W, Wd = _borrowed_sp_work(own[2]), _borrowed_lsq_work(own[3])
@@ -1069,6 +1077,7 @@ def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, b
     co, trial = _borrowed_state(own[6][0]), _borrowed_state(own[6][1])
     rs, step, w3, dv, qdd = _borrowed(own[7][0]), _borrowed(own[7][1]), _borrowed(own[7][2]), \
         _borrowed(own[7][3]), _borrowed(own[7][4])
+    an = _borrowed(own[7][5])
     R, X, T, R3 = _borrowed(own[8][0]), _borrowed(own[8][1]), _borrowed(own[9][0]), \
         _borrowed(own[9][1])
     wk = _borrowed_work(own[10])
@@ -1086,8 +1095,9 @@ def _stage_members(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, b
         xb, yb, blk_b = bx[b * ni:(b + 1) * ni], y[a * mm:(a + 1) * mm], buf[o:o + blk]
         bq_b, brot_b, tan_b = bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns], \
             tangent[b * nv:(b + 1) * nv]
-        _predict(PI, PF, bq_b, brot_b, xb, tan_b, yb, co[0], co[1], dv, R3, blk_b, iopt)
-        _base_curvature(blk_b, iopt, nv, xb, blk_b[o_px:o_px + 1], blk_b[o_pa:o_pa + nv])
+        has = _predict(PI, PF, bq_b, brot_b, xb, tan_b, yb, co[0], co[1], dv, R3, blk_b,
+                       iopt, an)
+        _keep_analogs(has, xb, an, blk_b[o_px:o_px + 1], blk_b[o_pa:o_pa + nv])
         co, trial, done, n_res, n_its, n_cond, _, at_pose, fast, inv0 = _newton(
             PI, PF, PM, co, trial, maxiter, False, ucols, icols, P, Pi, W, Wd, Wi, Jp, rs, step,
             R, X, T, w3, R3, rank, fopts, False)
@@ -1120,8 +1130,8 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
     ni, nu, rank, maxiter = icols.shape[0], ucols.shape[0], iopt[I_RANK], iopt[I_MAXITER]
     nv, nj, nl, nc = PI[H_NV], PI[H_NJ], PI[H_NL], PI[H_NC]
     mm, blk, o_inq, o_px, o_pa = 2 * ni + 2, iopt[B_SIZE], PI[O_INQ], iopt[B_PX], iopt[B_PA]
-    B, NA = bx.shape[0] // ni, members.shape[0]
-    nq, ns = bq.shape[0] // B, brot.shape[0] // B
+    NA = members.shape[0]
+    nq, ns = _member_sizes(ni, bq, brot, bx)
     m = 6 * nc
     k = min(m, nu)
     L = _lk.LANES
@@ -1193,8 +1203,9 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
             a, b = a0 + l, members[a0 + l]
             o = b * blk
             xb, yb, blk_b = bx[b * ni:(b + 1) * ni], y[a * mm:(a + 1) * mm], buf[o:o + blk]
-            _tangent_step(PI, PF, xb, tangent[b * nv:(b + 1) * nv], yb, blk_b, iopt, stp[:, l])
-            _base_curvature(blk_b, iopt, nv, xb, bpx[l:l + 1], bpa[:, l])
+            has = _tangent_step(PI, PF, xb, tangent[b * nv:(b + 1) * nv], yb, blk_b, iopt,
+                                stp[:, l], bpa[:, l])
+            _keep_analogs(has, xb, bpa[:, l], bpx[l:l + 1], bpa[:, l])
             _to_lane(bq[b * nq:(b + 1) * nq], brot[b * ns:(b + 1) * ns], tri[0], tri[1], l)
         _lk.apply(PI, PF, tri[0], tri[1], stp, cur[0], cur[1], R3, LN)
         for l in range(LN):

@@ -202,7 +202,10 @@ SINCOS_REDUCED = 1e5
 
 @numba.njit(inline="always", **_JIT)
 def _sincos_reduced(x):
-    """``(sin x, cos x)`` by the reduction and series above, for |x| < SINCOS_REDUCED."""
+    """``(sin x, cos x)`` by the reduction and series above, for |x| < SINCOS_REDUCED.
+    Beyond it and for non-finite x the values are meaningless (the callers replace them:
+    :func:`_sincos`, the lane kernels' ``_sincos_beyond``) but defined: the quadrant's
+    conversion to an integer stays in range there too."""
     k = math.floor(x * _INV_PIO2 + 0.5)
     r = ((x - k * _PIO2_1) - k * _PIO2_2) - k * _PIO2_3
     z = r * r
@@ -214,7 +217,7 @@ def _sincos_reduced(x):
     w = 1.0 - hz                                # 1 − r²/2 and its rounding error
     c = w + (((1.0 - w) - hz) + z * z * (_C4 + z * (_C6 + z * (_C8 + z * (_C10 + z * (
         _C12 + z * (_C14 + z * (_C16 + z * _C18))))))))
-    q = np.int64(k)                             # the quadrant
+    q = np.int64(k if abs(k) < 1048576.0 else 0.0)      # the quadrant (|k| < 2^20 here)
     a = c if q & 1 else s
     b = s if q & 1 else c
     return (-a if q & 2 else a), (-b if (q + 1) & 2 else b)

@@ -409,7 +409,7 @@ def _terms_lanes(PI, PF, DI, DF, q, link, S, xd, ucols, icols, J, Ginv, inv0, sc
     L), ``en`` (3, L) and ``bound`` (L); ``sc`` the scratch of :func:`_lane_work`.  Every
     value the one-member kernel's, bit for bit (a term it skips where a first analog is
     zero is selected away here)."""
-    Jin, R, X, T1, T2, acc1, Vl, bias, G, acc, Ic = sc
+    Jin, R, X, T1, T2, acc1, Vl, bias, G, acc, Ic, cw, an, Gv = sc
     nv, nc, nl = PI[H_NV], PI[H_NC], PI[H_NL]
     m = 6 * nc
     nu, ni = ucols.shape[0], icols.shape[0]
@@ -547,13 +547,14 @@ def _terms_lanes(PI, PF, DI, DF, q, link, S, xd, ucols, icols, J, Ginv, inv0, sc
                             f = first[c, i, l]
                             g = G[i, s, l] + p * (S[c, s, l] * f)
                             G[i, s, l] = g if f != 0.0 else G[i, s, l]
+        # (in lane loops that each write arrays they do not read: vectorised)
         cm0, cm1, cm2 = DF[o + 1], DF[o + 2], DF[o + 3]
-        for l in range(LN):
-            c0 = link[li, 0, 3, l] + link[li, 0, 0, l] * cm0 + link[li, 0, 1, l] * cm1 + \
+        for l in range(LN):                 # the centre of mass, the inertia in the world
+            cw[0, l] = link[li, 0, 3, l] + link[li, 0, 0, l] * cm0 + link[li, 0, 1, l] * cm1 + \
                 link[li, 0, 2, l] * cm2
-            c1 = link[li, 1, 3, l] + link[li, 1, 0, l] * cm0 + link[li, 1, 1, l] * cm1 + \
+            cw[1, l] = link[li, 1, 3, l] + link[li, 1, 0, l] * cm0 + link[li, 1, 1, l] * cm1 + \
                 link[li, 1, 2, l] * cm2
-            c2 = link[li, 2, 3, l] + link[li, 2, 0, l] * cm0 + link[li, 2, 1, l] * cm1 + \
+            cw[2, l] = link[li, 2, 3, l] + link[li, 2, 0, l] * cm0 + link[li, 2, 1, l] * cm1 + \
                 link[li, 2, 2, l] * cm2
             for b in range(3):              # column b of I Rᵀ, then R times it
                 t0, t1, t2 = 0.0, 0.0, 0.0
@@ -568,41 +569,49 @@ def _terms_lanes(PI, PF, DI, DF, q, link, S, xd, ucols, icols, J, Ginv, inv0, sc
                     s += link[li, a, 1, l] * t1
                     s += link[li, a, 2, l] * t2
                     Ic[a, b, l] = s
+        for l in range(LN):                 # the centre's acceleration, the moment's rate
+            c0, c1, c2 = cw[0, l], cw[1, l], cw[2, l]
             w0, w1, w2 = Vl[li, 3, l], Vl[li, 4, l], Vl[li, 5, l]
             u0 = Vl[li, 0, l] + (w1 * c2 - w2 * c1)
             u1 = Vl[li, 1, l] + (w2 * c0 - w0 * c2)
             u2 = Vl[li, 2, l] + (w0 * c1 - w1 * c0)
             al0, al1, al2 = acc[3, l], acc[4, l], acc[5, l]
-            a0 = acc[0, l] + (al1 * c2 - al2 * c1) + (w1 * u2 - w2 * u1)
-            a1 = acc[1, l] + (al2 * c0 - al0 * c2) + (w2 * u0 - w0 * u2)
-            a2 = acc[2, l] + (al0 * c1 - al1 * c0) + (w0 * u1 - w1 * u0)
+            an[0, l] = acc[0, l] + (al1 * c2 - al2 * c1) + (w1 * u2 - w2 * u1)
+            an[1, l] = acc[1, l] + (al2 * c0 - al0 * c2) + (w2 * u0 - w0 * u2)
+            an[2, l] = acc[2, l] + (al0 * c1 - al1 * c0) + (w0 * u1 - w1 * u0)
             I00, I01, I02 = Ic[0, 0, l], Ic[0, 1, l], Ic[0, 2, l]
             I10, I11, I12 = Ic[1, 0, l], Ic[1, 1, l], Ic[1, 2, l]
             I20, I21, I22 = Ic[2, 0, l], Ic[2, 1, l], Ic[2, 2, l]
             iw0 = I00 * w0 + I01 * w1 + I02 * w2
             iw1 = I10 * w0 + I11 * w1 + I12 * w2
             iw2 = I20 * w0 + I21 * w1 + I22 * w2
-            n0 = I00 * al0 + I01 * al1 + I02 * al2 + (w1 * iw2 - w2 * iw1)
-            n1 = I10 * al0 + I11 * al1 + I12 * al2 + (w2 * iw0 - w0 * iw2)
-            n2 = I20 * al0 + I21 * al1 + I22 * al2 + (w0 * iw1 - w1 * iw0)
-            for i in range(ni):             # J_v = Γ_v + Γ_ω × c, J_ω = Γ_ω
-                gw0, gw1, gw2 = G[i, 3, l], G[i, 4, l], G[i, 5, l]
-                G[i, 0, l] += gw1 * c2 - gw2 * c1
-                G[i, 1, l] += gw2 * c0 - gw0 * c2
-                G[i, 2, l] += gw0 * c1 - gw1 * c0
-            for i in range(ni):
-                gv0, gv1, gv2 = G[i, 0, l], G[i, 1, l], G[i, 2, l]
-                gw0, gw1, gw2 = G[i, 3, l], G[i, 4, l], G[i, 5, l]
-                for j in range(i + 1):
-                    e = mass * (gv0 * G[j, 0, l] + gv1 * G[j, 1, l] + gv2 * G[j, 2, l])
-                    e += G[i, 3, l] * (I00 * G[j, 3, l] + I01 * G[j, 4, l] + I02 * G[j, 5, l])
-                    e += G[i, 4, l] * (I10 * G[j, 3, l] + I11 * G[j, 4, l] + I12 * G[j, 5, l])
-                    e += G[i, 5, l] * (I20 * G[j, 3, l] + I21 * G[j, 4, l] + I22 * G[j, 5, l])
-                    M[i, j, l] += e
-                h[i, l] += mass * (gv0 * a0 + gv1 * a1 + gv2 * a2) + gw0 * n0 + gw1 * n1 + \
-                    gw2 * n2
-                Q[i, l] += mass * (gv0 * g0 + gv1 * g1 + gv2 * g2)
+            an[3, l] = I00 * al0 + I01 * al1 + I02 * al2 + (w1 * iw2 - w2 * iw1)
+            an[4, l] = I10 * al0 + I11 * al1 + I12 * al2 + (w2 * iw0 - w0 * iw2)
+            an[5, l] = I20 * al0 + I21 * al1 + I22 * al2 + (w0 * iw1 - w1 * iw0)
             en[1, l] -= mass * (c0 * g0 + c1 * g1 + c2 * g2)
+        for i in range(ni):                 # J_v = Γ_v + Γ_ω × c, J_ω = Γ_ω
+            for l in range(LN):
+                c0, c1, c2 = cw[0, l], cw[1, l], cw[2, l]
+                gw0, gw1, gw2 = G[i, 3, l], G[i, 4, l], G[i, 5, l]
+                Gv[i, 0, l] = G[i, 0, l] + (gw1 * c2 - gw2 * c1)
+                Gv[i, 1, l] = G[i, 1, l] + (gw2 * c0 - gw0 * c2)
+                Gv[i, 2, l] = G[i, 2, l] + (gw0 * c1 - gw1 * c0)
+        for i in range(ni):
+            for l in range(LN):
+                gv0, gv1, gv2 = Gv[i, 0, l], Gv[i, 1, l], Gv[i, 2, l]
+                gw0, gw1, gw2 = G[i, 3, l], G[i, 4, l], G[i, 5, l]
+                I00, I01, I02 = Ic[0, 0, l], Ic[0, 1, l], Ic[0, 2, l]
+                I10, I11, I12 = Ic[1, 0, l], Ic[1, 1, l], Ic[1, 2, l]
+                I20, I21, I22 = Ic[2, 0, l], Ic[2, 1, l], Ic[2, 2, l]
+                for j in range(i + 1):
+                    e = mass * (gv0 * Gv[j, 0, l] + gv1 * Gv[j, 1, l] + gv2 * Gv[j, 2, l])
+                    e += gw0 * (I00 * G[j, 3, l] + I01 * G[j, 4, l] + I02 * G[j, 5, l])
+                    e += gw1 * (I10 * G[j, 3, l] + I11 * G[j, 4, l] + I12 * G[j, 5, l])
+                    e += gw2 * (I20 * G[j, 3, l] + I21 * G[j, 4, l] + I22 * G[j, 5, l])
+                    M[i, j, l] += e
+                h[i, l] += mass * (gv0 * an[0, l] + gv1 * an[1, l] + gv2 * an[2, l]) + \
+                    gw0 * an[3, l] + gw1 * an[4, l] + gw2 * an[5, l]
+                Q[i, l] += mass * (gv0 * g0 + gv1 * g1 + gv2 * g2)
     for i in range(ni):
         for j in range(i):
             for l in range(LN):
@@ -631,14 +640,15 @@ def _terms_lanes(PI, PF, DI, DF, q, link, S, xd, ucols, icols, J, Ginv, inv0, sc
 def _lane_work(PI, ni, nu):
     """Scratch of :func:`_terms_lanes`: ``(Jin (m, ni, L), R (ni + 1, m, L), X (ni + 1,
     nu, L), T1 (k, L), T2 (m, L), acc1 (L), Vl (nl, 6, L), bias (nv, 6, L), G (ni, 6, L),
-    acc (6, L), Ic (3, 3, L))``."""
+    acc (6, L), Ic (3, 3, L), cw (3, L), an (6, L), Gv (ni, 3, L))``."""
     L = _lk.LANES
     nv, nc, nl = PI[H_NV], PI[H_NC], PI[H_NL]
     m = 6 * nc
     k = min(m, nu)
     return (np.zeros((m, ni, L)), np.zeros((ni + 1, m, L)), np.zeros((ni + 1, nu, L)),
             np.zeros((k, L)), np.zeros((m, L)), np.zeros(L), np.zeros((nl, 6, L)),
-            np.zeros((nv, 6, L)), np.zeros((ni, 6, L)), np.zeros((6, L)), np.zeros((3, 3, L)))
+            np.zeros((nv, 6, L)), np.zeros((ni, 6, L)), np.zeros((6, L)), np.zeros((3, 3, L)),
+            np.zeros((3, L)), np.zeros((6, L)), np.zeros((ni, 3, L)))
 
 # ---------------------------------------------------------------------- the entry kernel
 #: tasks of :func:`step`
@@ -1142,7 +1152,8 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
     # the block's state (current and trial), its scratch, one member's scratch, the terms'
     own = (_lk.lane_state(nq, ns, nj, nl, nc, nv), _lk.lane_state(nq, ns, nj, nl, nc, nv),
            (np.zeros((nj, 4, 4, L)), np.zeros((nj, 4, 4, L)), np.zeros((3, 4, 4, L)),
-            np.zeros((8, L)), np.zeros((3, 4, 4)), np.zeros((1, 6)), np.zeros(3)),
+            np.zeros((8, L)), np.zeros((3, 4, 4)), np.zeros((1, 6)), np.zeros(3),
+            np.zeros((1, 4, 4, L))),
            (np.zeros((m, nu, L)), np.zeros((k, k, L)), np.zeros((k, k, L)),
             np.zeros((k, k, L)), np.zeros((k, k, L)), np.zeros(L), np.zeros(L),
             np.zeros((3, L))),
@@ -1160,9 +1171,9 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
             np.zeros((ni, ni, L)), np.zeros((ni, L)), np.zeros((ni, L)), np.zeros((3, L)),
             np.zeros(L)))
     cur, tri = _borrowed_lanes(own[0]), _borrowed_lanes(own[1])
-    A, fa, T, tmp, T1, r1, w3 = own[2]
+    A, fa, T, tmp, T1, r1, w3, Tg = own[2]
     A, fa, T, tmp, T1 = _borrowed(A), _borrowed(fa), _borrowed(T), _borrowed(tmp), _borrowed(T1)
-    r1, w3 = _borrowed(r1), _borrowed(w3)
+    r1, w3, Tg = _borrowed(r1), _borrowed(w3), _borrowed(Tg)
     J, G, Lc, Linv, Ginv, fl, il, vec = own[3]
     J, G, Lc, Linv, Ginv = _borrowed(J), _borrowed(G), _borrowed(Lc), _borrowed(Linv), \
         _borrowed(Ginv)
@@ -1184,7 +1195,8 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
     sc = own[11]
     lsc = (_borrowed(sc[0]), _borrowed(sc[1]), _borrowed(sc[2]), _borrowed(sc[3]),
            _borrowed(sc[4]), _borrowed(sc[5]), _borrowed(sc[6]), _borrowed(sc[7]),
-           _borrowed(sc[8]), _borrowed(sc[9]), _borrowed(sc[10]))
+           _borrowed(sc[8]), _borrowed(sc[9]), _borrowed(sc[10]), _borrowed(sc[11]),
+           _borrowed(sc[12]), _borrowed(sc[13]))
     t_first, t_qd, t_qdd, t_M, t_h, t_Q, t_en, t_bound = own[12]
     t_first, t_qd, t_qdd, t_M = _borrowed(t_first), _borrowed(t_qd), _borrowed(t_qdd), \
         _borrowed(t_M)
@@ -1211,8 +1223,8 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
         for l in range(LN):
             for i in range(ni):
                 cur[0][PI[o_inq + i], l] = y[(a0 + l) * mm + i]
-        _lk.evaluate(PI, PF, PM, cur[0], cur[1], cur[2], cur[3], cur[4], A, fa, T, tmp, T1,
-                     r1, w3, LN)
+        _lk.evaluate(PI, PF, PM, cur[0], cur[1], cur[2], cur[3], cur[4], A, fa, T, Tg, tmp,
+                     T1, r1, w3, LN)
         for l in range(LN):
             n_res[l] = _scaled_residual(cur[3][:, :, l], scale, rs[:, l])
             prev[l], n_its[l], done[l], wait[l] = np.inf, 0, False, 0.0
@@ -1281,7 +1293,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
                                 stp[c, l] *= 0.5
                 _lk.apply(PI, PF, cur[0], cur[1], stp, tri[0], tri[1], R3, LN)
                 _lk.evaluate(PI, PF, PM, tri[0], tri[1], tri[2], tri[3], tri[4], A, fa, T,
-                             tmp, T1, r1, w3, LN)
+                             Tg, tmp, T1, r1, w3, LN)
                 left = 0
                 for l in range(LN):
                     if done[l] or wait[l] == 0.0:

@@ -104,37 +104,44 @@ def lane_state(nq, ns, nj, nl, nc, nv):
 
 
 @numba.njit(**_LJIT)
-def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, tmp, T1, r1, w3, LN):
+def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, Tg, tmp, T1, r1, w3, LN):
     """:func:`closure.solve_kernels._evaluate` of lanes ``0 .. LN − 1``: ``link``, ``r``,
     ``S`` overwritten from ``q`` (nq, L) and ``rot`` (ns, 3, 3, L); ``A``, ``fa`` (nj, 4,
-    4, L), ``T`` (3, 4, 4, L), ``tmp`` (8, L) scratch, and ``T1`` (3, 4, 4), ``r1`` (1,
-    6), ``w3`` (3,) the one-member scratch of the loop's log past a quarter turn."""
+    4, L), ``T`` (3, 4, 4, L), ``Tg`` (1, 4, 4, L), ``tmp`` (8, L) scratch, and ``T1`` (3,
+    4, 4), ``r1`` (1, 6), ``w3`` (3,) the one-member scratch of the loop's log past a
+    quarter turn.  No lane loop reads and writes the same array: the compiler vectorises
+    only those that do not (``noalias`` holds between arrays, not within one)."""
     nj, nc = PI[H_NJ], PI[H_NC]
     o_kind, o_qoff, o_sidx, o_pitch, o_um = PI[O_KIND], PI[O_QOFF], PI[O_SIDX], \
         PI[F_PITCH], PI[F_UMID]
-    for j in range(nj):                                 # joint matrices
+    for j in range(nj):                                 # joint matrices (rows 0-2 read)
+        k = PI[o_kind + j]
+        qj = PI[o_qoff + j]
+        if k == 0 or k == 2 or k == 3:                  # R, C, H: Rz(θ), z 0 / d / θ p
+            for l in range(LN):
+                tmp[1, l], tmp[0, l] = _sincos_reduced(q[qj, l])
+            _sincos_beyond(q[qj], tmp[1], tmp[0], LN)
+            if k == 0:
+                for l in range(LN):
+                    tmp[2, l] = 0.0
+            elif k == 2:
+                for l in range(LN):
+                    tmp[2, l] = q[qj + 1, l]
+            else:
+                p = PF[o_pitch + j]
+                for l in range(LN):
+                    tmp[2, l] = q[qj, l] * p
+            for l in range(LN):
+                c, s = tmp[0, l], tmp[1, l]
+                _rigid_put_l((c, -s, 0.0, 0.0, s, c, 0.0, 0.0, 0.0, 0.0, 1.0, tmp[2, l]), A, j,
+                             l)
+            continue
         for a in range(4):
             for b in range(4):
                 v = 1.0 if a == b else 0.0
                 for l in range(LN):
                     A[j, a, b, l] = v
-        k = PI[o_kind + j]
-        qj = PI[o_qoff + j]
-        if k == 0 or k == 2 or k == 3:                  # R, C, H: Rz(θ)
-            for l in range(LN):
-                tmp[1, l], tmp[0, l] = _sincos_reduced(q[qj, l])
-            _sincos_beyond(q[qj], tmp[1], tmp[0], LN)
-            for l in range(LN):
-                c, s = tmp[0, l], tmp[1, l]
-                A[j, 0, 0, l], A[j, 0, 1, l], A[j, 1, 0, l], A[j, 1, 1, l] = c, -s, s, c
-            if k == 2:
-                for l in range(LN):
-                    A[j, 2, 3, l] = q[qj + 1, l]
-            elif k == 3:
-                p = PF[o_pitch + j]
-                for l in range(LN):
-                    A[j, 2, 3, l] = q[qj, l] * p
-        elif k == 1:                                    # P: Tz(s)
+        if k == 1:                                    # P: Tz(s)
             for l in range(LN):
                 A[j, 2, 3, l] = q[qj, l]
         elif k == 5:                                    # S: the rotation
@@ -172,18 +179,23 @@ def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, tmp, T1, r1, w3, LN):
     for k in range(PI[H_NL] - 1):
         tj, li, pl = PI[o_tj + k], PI[o_tli + k], PI[o_tpl + k]
         tl, tr = _rigid(PM, m_tl + k), _rigid(PM, m_tr + k)
+        # the joint's part into T[0], the parent link's pose into T[1], then their product:
+        # no loop both reads and writes one array (the compiler would not vectorise it)
         if PI[o_tfwd + k]:
             for l in range(LN):
-                t = _rigid_mul(_rigid_mul(tl, _rigid_l(A, tj, l)), tr)
-                if pl != 0:
-                    t = _rigid_mul(_rigid_l(link, pl, l), t)
-                _rigid_put_l(t, link, li, l)
+                _rigid_put_l(_rigid_mul(_rigid_mul(tl, _rigid_l(A, tj, l)), tr), T, 0, l)
         else:
             for l in range(LN):
-                t = _rigid_mul(_rigid_mul(tl, _rigid_inv(_rigid_l(A, tj, l))), tr)
-                if pl != 0:
-                    t = _rigid_mul(_rigid_l(link, pl, l), t)
-                _rigid_put_l(t, link, li, l)
+                _rigid_put_l(_rigid_mul(_rigid_mul(tl, _rigid_inv(_rigid_l(A, tj, l))), tr),
+                             T, 0, l)
+        if pl != 0:
+            for l in range(LN):
+                _rigid_put_l(_rigid_l(link, pl, l), T, 1, l)
+            for l in range(LN):
+                _rigid_put_l(_rigid_mul(_rigid_l(T, 1, l), _rigid_l(T, 0, l)), link, li, l)
+        else:
+            for l in range(LN):
+                _rigid_put_l(_rigid_l(T, 0, l), link, li, l)
     o_jla, m_fa = PI[O_JLA], PI[M_FA]
     for j in range(nj):                                 # joint frames on link a
         la = PI[o_jla + j]
@@ -201,15 +213,19 @@ def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, tmp, T1, r1, w3, LN):
         c = PI[o_cj + k]
         cf = _rigid(PM, m_cf + k)
         lb = PI[o_clb + k]
+        for l in range(LN):                             # in three loops, each vectorised
+            _rigid_put_l(_rigid_mul(_rigid_mul(_rigid_l(fa, c, l), _rigid_l(A, c, l)), cf),
+                         Tg, 0, l)
         for l in range(LN):
-            t = _rigid_mul(_rigid_mul(_rigid_l(fa, c, l), _rigid_l(A, c, l)), cf)
             g00, g01, g02, g03, g10, g11, g12, g13, g20, g21, g22, g23 = \
-                _rigid_mul(t, _rigid_inv(_rigid_l(link, lb, l)))
+                _rigid_mul(_rigid_l(Tg, 0, l), _rigid_inv(_rigid_l(link, lb, l)))
             g03 += (g00 * c0 + g01 * c1 + g02 * c2) - c0
             g13 += (g10 * c0 + g11 * c1 + g12 * c2) - c1
             g23 += (g20 * c0 + g21 * c1 + g22 * c2) - c2
             _rigid_put_l((g00, g01, g02, g03, g10, g11, g12, g13, g20, g21, g22, g23), T, 2,
                          l)
+        for l in range(LN):
+            g00, g01, g02, g03, g10, g11, g12, g13, g20, g21, g22, g23 = _rigid_l(T, 2, l)
             v0 = 0.5 * (g21 - g12)                      # _rot_log
             v1 = 0.5 * (g02 - g20)
             v2 = 0.5 * (g10 - g01)

@@ -596,21 +596,23 @@ def _terms_lanes(PI, PF, DI, DF, q, link, S, xd, ucols, icols, J, Ginv, inv0, sc
                 Gv[i, 0, l] = G[i, 0, l] + (gw1 * c2 - gw2 * c1)
                 Gv[i, 1, l] = G[i, 1, l] + (gw2 * c0 - gw0 * c2)
                 Gv[i, 2, l] = G[i, 2, l] + (gw0 * c1 - gw1 * c0)
-        for i in range(ni):
+        for i in range(ni):                 # (the lane loops innermost)
+            for j in range(i + 1):
+                for l in range(LN):
+                    gv0, gv1, gv2 = Gv[i, 0, l], Gv[i, 1, l], Gv[i, 2, l]
+                    gw0, gw1, gw2 = G[i, 3, l], G[i, 4, l], G[i, 5, l]
+                    e = mass * (gv0 * Gv[j, 0, l] + gv1 * Gv[j, 1, l] + gv2 * Gv[j, 2, l])
+                    e += gw0 * (Ic[0, 0, l] * G[j, 3, l] + Ic[0, 1, l] * G[j, 4, l] +
+                                Ic[0, 2, l] * G[j, 5, l])
+                    e += gw1 * (Ic[1, 0, l] * G[j, 3, l] + Ic[1, 1, l] * G[j, 4, l] +
+                                Ic[1, 2, l] * G[j, 5, l])
+                    e += gw2 * (Ic[2, 0, l] * G[j, 3, l] + Ic[2, 1, l] * G[j, 4, l] +
+                                Ic[2, 2, l] * G[j, 5, l])
+                    M[i, j, l] += e
             for l in range(LN):
                 gv0, gv1, gv2 = Gv[i, 0, l], Gv[i, 1, l], Gv[i, 2, l]
-                gw0, gw1, gw2 = G[i, 3, l], G[i, 4, l], G[i, 5, l]
-                I00, I01, I02 = Ic[0, 0, l], Ic[0, 1, l], Ic[0, 2, l]
-                I10, I11, I12 = Ic[1, 0, l], Ic[1, 1, l], Ic[1, 2, l]
-                I20, I21, I22 = Ic[2, 0, l], Ic[2, 1, l], Ic[2, 2, l]
-                for j in range(i + 1):
-                    e = mass * (gv0 * Gv[j, 0, l] + gv1 * Gv[j, 1, l] + gv2 * Gv[j, 2, l])
-                    e += gw0 * (I00 * G[j, 3, l] + I01 * G[j, 4, l] + I02 * G[j, 5, l])
-                    e += gw1 * (I10 * G[j, 3, l] + I11 * G[j, 4, l] + I12 * G[j, 5, l])
-                    e += gw2 * (I20 * G[j, 3, l] + I21 * G[j, 4, l] + I22 * G[j, 5, l])
-                    M[i, j, l] += e
                 h[i, l] += mass * (gv0 * an[0, l] + gv1 * an[1, l] + gv2 * an[2, l]) + \
-                    gw0 * an[3, l] + gw1 * an[4, l] + gw2 * an[5, l]
+                    G[i, 3, l] * an[3, l] + G[i, 4, l] * an[4, l] + G[i, 5, l] * an[5, l]
                 Q[i, l] += mass * (gv0 * g0 + gv1 * g1 + gv2 * g2)
     for i in range(ni):
         for j in range(i):

@@ -712,6 +712,14 @@ def _exact_condition(PI, PF, S, ucols, rank, Ju, W):
 
 
 @numba.njit(inline="always", **_JIT)
+def _mat(a, o, n0, n1):
+    """``a[o:o + n0 n1]`` (1-D) as an (n0, n1) row-major view: numba's ``reshape`` calls a
+    C helper (~12 ns a call, on every member's path here), a strided view does not."""
+    s = a.strides[0]
+    return np.lib.stride_tricks.as_strided(a[o:], shape=(n0, n1), strides=(n1 * s, s))
+
+
+@numba.njit(inline="always", **_JIT)
 def _member_sizes(ni, bq, brot, bx):
     """``(nq, ns)``: a member's stored coordinates and rotations in the stacked bases
     ``bq`` (B·nq), ``brot`` (B·ns, 3, 3) at inputs ``bx`` (B·ni)."""
@@ -904,9 +912,9 @@ def step(task, PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, r
             _evaluate_state(PI, PF, PM, q[b], rot[b], A_, link_, fa_, r_, S_, T, w3)
             fast, bound = _terms(PI, PF, DI, DF, q[b], link_, S_, y[b * ni:(b + 1) * ni], rank,
                                  ucols, icols, wk,
-                                 buf[o + o_f:o + o_f + nv * ni].reshape((nv, ni)),
+                                 _mat(buf, o + o_f, nv, ni),
                                  buf[o + o_qd:o + o_qd + nv], qdd,
-                                 buf[o + o_M:o + o_M + ni * ni].reshape((ni, ni)),
+                                 _mat(buf, o + o_M, ni, ni),
                                  buf[o + o_h:o + o_h + ni], buf[o + o_Q:o + o_Q + ni],
                                  buf[o + o_en:o + o_en + 3], nofac)
             buf[o + o_fig + FIG_COND] = bound
@@ -945,8 +953,8 @@ def _pose_rhs(PI, PF, DI, DF, fopts, iopt, ucols, icols, q, rot, link, S, res, i
     o_f, o_qd, o_M = iopt[B_FIRST], iopt[B_QD], iopt[B_M]
     o_h, o_Q, o_en, o_qdd = iopt[B_H], iopt[B_Q], iopt[B_EN], iopt[B_QDD]
     fast, bound = _terms(PI, PF, DI, DF, q, link, S, y[ni:2 * ni], iopt[I_RANK], ucols, icols,
-                         wk, buf[o_f:o_f + nv * ni].reshape((nv, ni)), buf[o_qd:o_qd + nv],
-                         qdd, buf[o_M:o_M + ni * ni].reshape((ni, ni)), buf[o_h:o_h + ni],
+                         wk, _mat(buf, o_f, nv, ni), buf[o_qd:o_qd + nv],
+                         qdd, _mat(buf, o_M, ni, ni), buf[o_h:o_h + ni],
                          buf[o_Q:o_Q + ni], buf[o_en:o_en + 3], fac)
     for c in range(nv):
         buf[o_qdd + c] = qdd[c]
@@ -974,8 +982,8 @@ def _settle(PI, PF, fopts, iopt, ucols, icols, q, rot, S, res, its, flag, bq, br
     fig = buf[o_fig:o_fig + 5]
     fig[FIG_RES], fig[FIG_ITS], fig[FIG_CONV] = res, its, 1.0 if conv else 0.0
     fig[FIG_CLOSED] = 1.0 if closed else 0.0
-    first = buf[o_f:o_f + nv * ni].reshape((nv, ni))
-    M = buf[o_M:o_M + ni * ni].reshape((ni, ni))
+    first = _mat(buf, o_f, nv, ni)
+    M = _mat(buf, o_M, ni, ni)
     o_h, o_Q, o_en = iopt[B_H], iopt[B_Q], iopt[B_EN]
     h, Q, en = buf[o_h:o_h + ni], buf[o_Q:o_Q + ni], buf[o_en:o_en + 3]
     xd = y[ni:2 * ni]
@@ -1007,7 +1015,7 @@ def _settle(PI, PF, fopts, iopt, ucols, icols, q, rot, S, res, its, flag, bq, br
     out[2 * ni], out[2 * ni + 1] = en[0], 0.0
     if not finite:
         return NON_FINITE
-    Minv = buf[o_mi:o_mi + ni * ni].reshape((ni, ni))
+    Minv = _mat(buf, o_mi, ni, ni)
     if not _cholesky_inverse(M, Minv, wk[12]):
         return NOT_SPD
     for i in range(ni):

@@ -141,7 +141,7 @@ def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, Tg, tmp, T1, r1, w3, LN):
                 v = 1.0 if a == b else 0.0
                 for l in range(LN):
                     A[j, a, b, l] = v
-        if k == 1:                                    # P: Tz(s)
+        if k == 1:                                      # P: Tz(s)
             for l in range(LN):
                 A[j, 2, 3, l] = q[qj, l]
         elif k == 5:                                    # S: the rotation

@@ -141,7 +141,8 @@ def test_lane_kernels_equal_the_one_member_kernels(name):
     ql[:, :LN], rotl[..., :LN] = q.T, np.moveaxis(rot, 0, -1)
     A, fa = np.zeros((nj, 4, 4, L)), np.zeros((nj, 4, 4, L))
     lk.evaluate(PI, PF, PM, ql, rotl, link, r, S, A, fa, np.zeros((3, 4, 4, L)),
-                np.zeros((1, 4, 4, L)), np.zeros((8, L)), np.zeros((3, 4, 4)), np.zeros((1, 6)), np.zeros(3), LN)
+                np.zeros((1, 4, 4, L)), np.zeros((8, L)), np.zeros((3, 4, 4)), np.zeros((1, 6)),
+                np.zeros(3), LN)
     ucols = plan._ucols
     m, nu = 6 * nc, ucols.size
     k, rank = min(m, nu), _expected_rank(d.m)

@@ -71,7 +71,7 @@ from .solve_kernels import (_JIT, F_COLSC, F_OFFSET, F_ROWMAP, F_SCALE, H_NC, H_
                             _borrowed_sp_work, _borrowed_state, _cholesky, _dn_solve,
                             _inv_smin, _keep_alive, _lsq, _lsq_solve, _lsq_work,
                             _member_state, _newton, _pattern, _scaled_jacobian,
-                            _scaled_residual, _sp_work, _svd_parts)
+                            _sp_work, _svd_parts)
 from .solve_kernels import _evaluate as _evaluate_state
 
 __all__ = ["pack", "layout", "options", "step", "stage", "PREDICT", "TRACK", "RHS", "TERMS",
@@ -1173,7 +1173,7 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
            (np.zeros((m, nu)), np.zeros((m, 1)), np.zeros((nu, 1))), _lsq_work(m, nu, ni),
            _work(PI, ni, nu),
            (np.zeros(L), np.zeros(L), np.zeros(L), np.zeros(L), np.zeros((ni, L)), np.zeros(L),
-            np.zeros((nv, L))),
+            np.zeros((nv, L)), np.zeros(L)),
            (np.zeros(L, dtype=np.int64), np.zeros(L, dtype=np.bool_),
             np.zeros(L, dtype=np.bool_)),
            _lane_work(PI, ni, nu),
@@ -1196,10 +1196,10 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
     Jd, Rd, Xd = own[6]
     Jd, Rd, Xd = _borrowed(Jd), _borrowed(Rd), _borrowed(Xd)
     Wd, wk = _borrowed_lsq_work(own[7]), _borrowed_work(own[8])
-    n_res, prev, inv0, wait, xd, bpx, bpa = own[9]
+    n_res, prev, inv0, wait, xd, bpx, bpa, rn_l = own[9]
     n_res, prev, inv0, wait = _borrowed(n_res), _borrowed(prev), _borrowed(inv0), \
         _borrowed(wait)
-    xd, bpx, bpa = _borrowed(xd), _borrowed(bpx), _borrowed(bpa)
+    xd, bpx, bpa, rn_l = _borrowed(xd), _borrowed(bpx), _borrowed(bpa), _borrowed(rn_l)
     n_its, done, ready = own[10]
     n_its, done, ready = _borrowed(n_its), _borrowed(done), _borrowed(ready)
     sc = own[11]
@@ -1235,8 +1235,8 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
                 cur[0][PI[o_inq + i], l] = y[(a0 + l) * mm + i]
         _lk.evaluate(PI, PF, PM, cur[0], cur[1], cur[2], cur[3], cur[4], A, fa, T, Tg, tmp,
                      T1, r1, w3, LN)
+        _lk.residual(cur[3], scale, rs, n_res, LN)
         for l in range(LN):
-            n_res[l] = _scaled_residual(cur[3][:, :, l], scale, rs[:, l])
             prev[l], n_its[l], done[l], wait[l] = np.inf, 0, False, 0.0
             ready[l] = False
         n_ready = 0
@@ -1304,11 +1304,14 @@ def _stage_lanes(PI, PF, PM, DI, DF, fopts, iopt, ucols, icols, members, bq, bro
                 _lk.apply(PI, PF, cur[0], cur[1], stp, tri[0], tri[1], R3, LN)
                 _lk.evaluate(PI, PF, PM, tri[0], tri[1], tri[2], tri[3], tri[4], A, fa, T,
                              Tg, tmp, T1, r1, w3, LN)
+                # every lane's residual (the same values in a lane that is not waiting: its
+                # trial is the pose whose residual ``rs`` holds), then the tests
+                _lk.residual(tri[3], scale, rs, rn_l, LN)
                 left = 0
                 for l in range(LN):
                     if done[l] or wait[l] == 0.0:
                         continue
-                    rn = _scaled_residual(tri[3][:, :, l], scale, rs[:, l])
+                    rn = rn_l[l]
                     if rn <= n_res[l] * (1 + 1e-9) or rn < floor or hs == 7:
                         n_res[l] = rn
                         wait[l] = 0.0

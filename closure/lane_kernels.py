@@ -44,7 +44,7 @@ from .solve_kernels import (_JIT, F_CENTRE, F_COLSC, F_LOOP, F_PITCH, F_ROWMAP, 
                             O_UQ0, SINCOS_REDUCED, _exp_so3, _loop_log, _rigid, _rigid_inv,
                             _rigid_mul, _sincos_reduced)
 
-__all__ = ["LANES", "evaluate", "apply", "jacobian", "factor", "solve", "lane_state"]
+__all__ = ["LANES", "evaluate", "residual", "apply", "jacobian", "factor", "solve", "lane_state"]
 
 #: lanes per block (the trailing axis of every lane array): more lanes spread each block's
 #: scalar work (the structure's tables, loop control, libm's atan2 loop) over more members;
@@ -302,6 +302,21 @@ def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, Tg, tmp, T1, r1, w3, LN):
                 S[ci, 0, l] += fa[j, 0, kv, l] * sv
                 S[ci, 1, l] += fa[j, 1, kv, l] * sv
                 S[ci, 2, l] += fa[j, 2, kv, l] * sv
+
+
+@numba.njit(**_LJIT)
+def residual(r, scale, out, big, LN):
+    """:func:`closure.solve_kernels._scaled_residual` of lanes ``0 .. LN − 1``: the loop
+    residuals ``r`` (nc, 6, L) made dimensionless into ``out`` (6 nc, L), each lane's
+    largest absolute entry (NaN where one is NaN) into ``big`` (L,)."""
+    for l in range(LN):
+        big[l] = 0.0
+    for k in range(r.shape[0]):
+        for s in range(6):
+            for l in range(LN):
+                v = r[k, s, l] / scale if s < 3 else r[k, s, l]
+                out[6 * k + s, l] = v
+                big[l] = abs(v) if abs(v) > big[l] or v != v else big[l]
 
 
 @numba.njit(**_LJIT)

@@ -771,7 +771,7 @@ def _tangent_step(PI, PF, bx, tangent, y, blk, iopt, dv, a):
     ``q̈_v / ẋ²`` in ``a`` (nv,) where it returns True: :func:`_keep_analogs` keeps them
     for the predictor after the next)."""
     nv, o_cs = PI[H_NV], PI[F_COLSC]
-    k, k3, dd, has = _curvature(blk, iopt, nv, bx, y, a)
+    k, k3, has = _curvature(blk, iopt, nv, bx, y, a)
     o_qdd, o_pa = iopt[B_QDD], iopt[B_PA]
     for c in range(nv):
         s = 0.0
@@ -787,7 +787,7 @@ def _tangent_step(PI, PF, bx, tangent, y, blk, iopt, dv, a):
 
 @numba.njit(inline="always", **_JIT)
 def _curvature(blk, iopt, nv, bx, y, a):
-    """The factors ``(k, k₃, ẋ·ẋ, has)`` of the predictor's higher-order terms from the
+    """The factors ``(k, k₃, has)`` of the predictor's higher-order terms from the
     base's block ``blk`` (:func:`layout`: where its code is :data:`OK`, its rates ``ẋ``
     (``out[:ni]``) and velocity-product accelerations ``q̈_v`` (``qdd``, the second analogs
     contracted with ``ẋ``)) to the inputs ``y[:ni]`` from ``bx``:
@@ -806,7 +806,7 @@ def _curvature(blk, iopt, nv, bx, y, a):
     is no earlier base (``px`` NaN) or more than one input.  ``has``: the base's second
     analogs ``q̈_v / ẋ²`` are in ``a`` (nv,) (one input, code OK, ``ẋ`` not 0)."""
     if blk[iopt[B_CODE]] != OK:
-        return 0.0, 0.0, 1.0, False
+        return 0.0, 0.0, False
     o_out = iopt[B_OUT]
     dd, dx = 0.0, 0.0
     for i in range(bx.shape[0]):
@@ -814,17 +814,17 @@ def _curvature(blk, iopt, nv, bx, y, a):
         dd += r * r
         dx += (y[i] - bx[i]) * r
     if not (dd > 1e-100 and dd < 1e100):
-        return 0.0, 0.0, 1.0, False
+        return 0.0, 0.0, False
     tau = dx / dd
     k = 0.5 * tau * tau
     if bx.shape[0] != 1:
-        return k, 0.0, dd, False
+        return k, 0.0, False
     o_qdd, o_pa = iopt[B_QDD], iopt[B_PA]
     for c in range(nv):
         a[c] = blk[o_qdd + c] / dd
     H = bx[0] - blk[iopt[B_PX]]
     if not (abs(H) > 0.0):                      # no earlier base (NaN), or the same inputs
-        return k, 0.0, dd, True
+        return k, 0.0, True
     D = y[0] - bx[0]
     s2, sd = 0.0, 0.0
     for c in range(nv):
@@ -832,8 +832,8 @@ def _curvature(blk, iopt, nv, bx, y, a):
         s2 += a[c] * a[c]
         sd += e * e
     if not (sd * D * D <= 9.0 * s2 * H * H):    # |q‴ Δx| > 3 |q″|: no third-order term
-        return k, 0.0, dd, True
-    return k, D * D * D / (6.0 * H), dd, True
+        return k, 0.0, True
+    return k, D * D * D / (6.0 * H), True
 
 
 @numba.njit(inline="always", **_JIT)

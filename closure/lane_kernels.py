@@ -109,8 +109,10 @@ def evaluate(PI, PF, PM, q, rot, link, r, S, A, fa, T, Tg, tmp, T1, r1, w3, LN):
     ``S`` overwritten from ``q`` (nq, L) and ``rot`` (ns, 3, 3, L); ``A``, ``fa`` (nj, 4,
     4, L), ``T`` (3, 4, 4, L), ``Tg`` (1, 4, 4, L), ``tmp`` (8, L) scratch, and ``T1`` (3,
     4, 4), ``r1`` (1, 6), ``w3`` (3,) the one-member scratch of the loop's log past a
-    quarter turn.  No lane loop reads and writes the same array: the compiler vectorises
-    only those that do not (``noalias`` holds between arrays, not within one)."""
+    quarter turn.  The joint matrices, the tree's products and the loop transform are
+    formed in lane loops that read and write different arrays: the compiler vectorises a
+    lane loop only where it can tell its stores from its loads (``noalias`` holds between
+    arrays, not within one)."""
     nj, nc = PI[H_NJ], PI[H_NC]
     o_kind, o_qoff, o_sidx, o_pitch, o_um = PI[O_KIND], PI[O_QOFF], PI[O_SIDX], \
         PI[F_PITCH], PI[F_UMID]
